@@ -1,0 +1,16 @@
+//! magopt: simulation-based optimization of magnetic particle processes.
+//!
+//! See `ARCHITECTURE.md` for the map of modules and `../shared/spec/` for the physics contract.
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod materials;
+pub mod models;
+pub mod neighbor;
+pub mod numerics;
+pub mod optimize;
+pub mod output;
+pub mod rng;
+pub mod units;
+
+pub use error::{Error, Result};

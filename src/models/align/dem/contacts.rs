@@ -1,0 +1,221 @@
+//! Contact geometry and the Hertz normal law (spec align.md, A4), in reduced units (length
+//! R_av, force E R_av²).
+//!
+//! For every particle the contact list holds its particle neighbours and the walls it touches
+//! or nearly touches (overlap > −skin), with the unit normal e from the particle toward the
+//! partner and the current overlap δ = R_i + R_j − |r_j − r_i|. Lists are per particle (each pair
+//! appears twice, once from each side) so a particle's forces are a gather: deterministic,
+//! free of write conflicts, and exactly antisymmetric since e_ji = −e_ij bit for bit.
+
+use nalgebra::Vector3;
+
+use crate::neighbor::NeighborList;
+
+/// Marks a wall partner.
+pub const WALL: u32 = u32::MAX;
+
+/// A rigid rectangular die [0, lx] × [0, ly] × [0, top] (reduced units); walls of the particle
+/// material.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct Container {
+    /// Side length along x.
+    pub lx: f64,
+    /// Side length along y.
+    pub ly: f64,
+    /// Height of the ceiling, if any (None: open top).
+    pub top: Option<f64>,
+}
+
+/// One (possible) contact of a particle.
+#[derive(Debug, Clone, Copy)]
+pub struct Contact {
+    /// Partner particle index, or `WALL`.
+    pub partner: u32,
+    /// Unit normal from the particle toward the partner.
+    pub normal: Vector3<f64>,
+    /// Current overlap δ (negative: a gap).
+    pub overlap: f64,
+    /// Hertz prefactor k with F_n = k δ^{3/2}: k = (4/3) E*/E √(R*/R_av).
+    pub hertz: f64,
+    /// Coulomb coefficient μ of this contact.
+    pub friction: f64,
+    /// Partner radius (0 for walls): its surface velocity at the contact is v_j − R_j ω_j × e.
+    pub partner_radius: f64,
+}
+
+impl Contact {
+    /// Hertz normal force magnitude at overlap δ: k δ^{3/2} for δ > 0, else 0 (A4).
+    pub fn normal_force_at(&self, overlap: f64) -> f64 {
+        if overlap > 0.0 {
+            self.hertz * overlap * overlap.sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// dF_n/dδ at overlap δ.
+    pub fn stiffness_at(&self, overlap: f64) -> f64 {
+        if overlap > 0.0 {
+            1.5 * self.hertz * overlap.sqrt()
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Contact laws of one run in reduced units.
+#[derive(Debug, Clone, Copy)]
+pub struct ContactLaw {
+    /// E*/E for a pair of particles (and a particle and a wall): 1/(2(1 − ν²)).
+    pub effective_modulus: f64,
+    /// μ between particles.
+    pub friction: f64,
+    /// μ between a particle and a wall.
+    pub wall_friction: f64,
+    /// Pairs and walls closer than this gap are listed (they may touch within a step).
+    pub skin: f64,
+}
+
+impl ContactLaw {
+    /// Prefactor (4/3) E*/E √R* of (A4) for reduced radii (wall: r_j = ∞).
+    pub fn hertz_prefactor(&self, r_i: f64, r_j: Option<f64>) -> f64 {
+        let r_star = match r_j {
+            Some(r_j) => r_i * r_j / (r_i + r_j),
+            None => r_i,
+        };
+        4.0 / 3.0 * self.effective_modulus * r_star.sqrt()
+    }
+}
+
+/// Per-particle contact lists (compressed rows).
+#[derive(Debug, Clone, Default)]
+pub struct ContactSet {
+    offsets: Vec<usize>,
+    contacts: Vec<Contact>,
+}
+
+impl ContactSet {
+    /// Contacts of particle i.
+    pub fn of(&self, i: usize) -> &[Contact] {
+        &self.contacts[self.offsets[i]..self.offsets[i + 1]]
+    }
+
+    /// All listed contacts, both directions.
+    pub fn all(&self) -> &[Contact] {
+        &self.contacts
+    }
+
+    /// Rebuilds the lists for the given positions, reusing the allocation.
+    pub fn rebuild(
+        &mut self,
+        positions: &[Vector3<f64>],
+        radii: &[f64],
+        neighbors: &NeighborList,
+        container: &Container,
+        law: &ContactLaw,
+    ) {
+        self.offsets.clear();
+        self.contacts.clear();
+        self.offsets.push(0);
+        for i in 0..positions.len() {
+            let (p, r) = (positions[i], radii[i]);
+            for &j in neighbors.of(i) {
+                let ju = j as usize;
+                let d = positions[ju] - p;
+                let dist = d.norm();
+                let overlap = r + radii[ju] - dist;
+                if overlap > -law.skin && dist > 0.0 {
+                    self.contacts.push(Contact {
+                        partner: j,
+                        normal: d / dist,
+                        overlap,
+                        hertz: law.hertz_prefactor(r, Some(radii[ju])),
+                        friction: law.friction,
+                        partner_radius: radii[ju],
+                    });
+                }
+            }
+            for (normal, gap) in wall_gaps(p, container) {
+                let overlap = r - gap;
+                if overlap > -law.skin {
+                    self.contacts.push(Contact {
+                        partner: WALL,
+                        normal,
+                        overlap,
+                        hertz: law.hertz_prefactor(r, None),
+                        friction: law.wall_friction,
+                        partner_radius: 0.0,
+                    });
+                }
+            }
+            self.offsets.push(self.contacts.len());
+        }
+    }
+
+    /// Largest overlap over all contacts (0 if none).
+    pub fn max_overlap(&self) -> f64 {
+        self.contacts.iter().map(|c| c.overlap).fold(0.0, f64::max)
+    }
+
+    /// Number of touching pairs (each counted once) plus touching wall contacts.
+    pub fn touching(&self) -> usize {
+        let pairs = self
+            .contacts
+            .iter()
+            .filter(|c| c.overlap > 0.0 && c.partner != WALL)
+            .count();
+        let walls = self
+            .contacts
+            .iter()
+            .filter(|c| c.overlap > 0.0 && c.partner == WALL)
+            .count();
+        pairs / 2 + walls
+    }
+}
+
+/// Outward wall normals and centre-to-wall distances of a point in the container.
+fn wall_gaps(p: Vector3<f64>, c: &Container) -> impl Iterator<Item = (Vector3<f64>, f64)> {
+    let walls = [
+        (Vector3::new(-1.0, 0.0, 0.0), p.x),
+        (Vector3::new(1.0, 0.0, 0.0), c.lx - p.x),
+        (Vector3::new(0.0, -1.0, 0.0), p.y),
+        (Vector3::new(0.0, 1.0, 0.0), c.ly - p.y),
+        (Vector3::new(0.0, 0.0, -1.0), p.z),
+    ];
+    let ceiling = c.top.map(|top| (Vector3::new(0.0, 0.0, 1.0), top - p.z));
+    walls.into_iter().chain(ceiling)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hertz_force_matches_formula() {
+        // Two unequal spheres, SI numbers converted: F = 4/3 E* √(R* δ) δ.
+        let law = ContactLaw {
+            effective_modulus: 1.0 / (2.0 * (1.0 - 0.28f64.powi(2))),
+            friction: 0.0,
+            wall_friction: 0.0,
+            skin: 0.1,
+        };
+        let (r1, r2, delta) = (1.1, 0.8, 0.01);
+        let contact = Contact {
+            partner: 1,
+            normal: Vector3::x(),
+            overlap: delta,
+            hertz: law.hertz_prefactor(r1, Some(r2)),
+            friction: 0.0,
+            partner_radius: r2,
+        };
+        let e_star = law.effective_modulus;
+        let r_star = 1.0 / (1.0 / r1 + 1.0 / r2);
+        let expected = 4.0 / 3.0 * e_star * (r_star * delta).sqrt() * delta;
+        assert!((contact.normal_force_at(delta) / expected - 1.0).abs() < 1e-14);
+        // stiffness is the derivative
+        let h = 1e-7;
+        let numeric = (contact.normal_force_at(delta + h) - contact.normal_force_at(delta - h)) / (2.0 * h);
+        assert!((contact.stiffness_at(delta) / numeric - 1.0).abs() < 1e-6);
+        assert_eq!(contact.normal_force_at(-0.01), 0.0);
+    }
+}

@@ -1,0 +1,213 @@
+//! Parameters of one `align` run (spec align.md), SI units, with the documented defaults of the
+//! source's setup, and the reduced unit system the DEM integrates in.
+
+use serde::Serialize;
+
+use crate::materials::Material;
+use crate::{Error, Result};
+
+/// How the pressure P is applied to the bed (spec align.md, "Pressure").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum PressureMode {
+    /// Each particle with no sphere above it gets π R² P downward (Σ π R² ≈ L_x L_y).
+    ExposedLayer,
+    /// The source's literal rule: particles with centre z > 0.9 z_max get π R² P each.
+    SourceLayer,
+}
+
+/// Numerical choices left open by the spec, each a named parameter with a tested default.
+#[derive(Debug, Clone, Serialize)]
+pub struct Numerics {
+    /// Largest rotation of the fastest free particle in one alignment step, rad. Sets the
+    /// alignment time step (contacts are implicit, so stiffness does not limit it). 0.05 rad.
+    pub rotation_step: f64,
+    /// Friction regularization v_ε as a fraction of the fastest magnetic surface speed
+    /// R ω_max: |F_t| = μ F_n |v_t| / √(|v_t|² + v_ε²). 1e-2 (τ_0.95 within 0.3 % of 1e-3).
+    pub friction_regularization: f64,
+    /// Gauss–Seidel stops when no velocity changes by more than this fraction of the magnetic
+    /// surface-speed scale in one sweep. 1e-4 (τ within 0.02 % of 1e-6).
+    pub solver_tolerance: f64,
+    /// Cap on Gauss–Seidel sweeps per velocity solve (reported when hit). 200.
+    pub max_sweeps: usize,
+    /// Settling force per particle (stage 3), in units of E R_av². A numerical device: real
+    /// gravity is ~1e-12 of the contact scale and would never settle the bed. 1e-3.
+    pub settling_force: f64,
+    /// Settling ends when no particle moves faster than this fraction of the free-fall speed
+    /// of the settling force. 1e-2.
+    pub rest_speed: f64,
+    /// Overlap removal (stage 2) and relaxation after settling end when the largest overlap is
+    /// below this fraction of R_av. 1e-5.
+    pub overlap_tolerance: f64,
+}
+
+impl Default for Numerics {
+    fn default() -> Self {
+        Self {
+            rotation_step: 0.05,
+            friction_regularization: 1e-2,
+            solver_tolerance: 1e-4,
+            max_sweeps: 200,
+            settling_force: 1e-3,
+            rest_speed: 1e-2,
+            overlap_tolerance: 1e-5,
+        }
+    }
+}
+
+/// The packing of one replicate depends only on these (common random numbers: every field,
+/// friction and pressure reuses it).
+#[derive(Debug, Clone, Serialize)]
+pub struct PackingParams {
+    /// Number of particles N (1000).
+    pub particles: usize,
+    /// Mean particle diameter D_av, m (1 µm). D_av is the *mean* of the log-normal law.
+    pub mean_diameter: f64,
+    /// σ of the underlying normal of ln D (0.10).
+    pub diameter_sigma: f64,
+    /// Young's modulus E of particles and walls, Pa.
+    pub youngs_modulus: f64,
+    /// Poisson ratio ν of particles and walls.
+    pub poisson_ratio: f64,
+    /// Numerical controls of the packing stages.
+    pub numerics: Numerics,
+}
+
+/// Everything that determines one alignment run besides the seed.
+#[derive(Debug, Clone, Serialize)]
+pub struct AlignParams {
+    /// The particle material.
+    pub material: Material,
+    /// Applied field H along +z, A/m.
+    pub field: f64,
+    /// Punch pressure P, Pa (0.5 atm).
+    pub pressure: f64,
+    /// How P is applied.
+    pub pressure_mode: PressureMode,
+    /// Coulomb friction coefficient μ between particles (0.2).
+    pub friction: f64,
+    /// Friction coefficient between particles and walls (default: μ).
+    pub wall_friction: f64,
+    /// Number of particles N (1000).
+    pub particles: usize,
+    /// Mean diameter D_av, m (1 µm).
+    pub mean_diameter: f64,
+    /// σ of ln D (0.10).
+    pub diameter_sigma: f64,
+    /// Translational and rotational damping γ = γ*, N·s/m (20, the source's value).
+    pub damping: f64,
+    /// Target alignment degree x of τ_x (0.95).
+    pub target: f64,
+    /// Time limit of the alignment stage, s (a run not at the target by then is "not reached").
+    pub max_time: f64,
+    /// Numerical controls.
+    pub numerics: Numerics,
+}
+
+impl AlignParams {
+    /// The source's setup for a material and a field: N = 1000, D_av = 1 µm, σ = 0.10, μ = 0.2,
+    /// P = 0.5 atm (exposed layer), γ = 20 N·s/m, x = 0.95, 20 000 s limit.
+    pub fn paper_defaults(material: Material, field: f64) -> Self {
+        Self {
+            material,
+            field,
+            pressure: 0.5 * 101_325.0,
+            pressure_mode: PressureMode::ExposedLayer,
+            friction: 0.2,
+            wall_friction: 0.2,
+            particles: 1000,
+            mean_diameter: 1e-6,
+            diameter_sigma: 0.10,
+            damping: 20.0,
+            target: 0.95,
+            max_time: 20_000.0,
+            numerics: Numerics::default(),
+        }
+    }
+
+    /// Checks every value; the error names the parameter, its value and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        self.material.validate()?;
+        check(self.field, "field", "≥ 0 A/m", |v| v >= 0.0)?;
+        check(self.pressure, "pressure", "≥ 0 Pa", |v| v >= 0.0)?;
+        check(self.friction, "friction", "≥ 0", |v| v >= 0.0)?;
+        check(self.wall_friction, "wall friction", "≥ 0", |v| v >= 0.0)?;
+        check(self.mean_diameter, "mean diameter", "> 0 m", |v| v > 0.0)?;
+        check(self.diameter_sigma, "diameter sigma", "in [0, 1]", |v| {
+            (0.0..=1.0).contains(&v)
+        })?;
+        check(self.damping, "damping", "> 0 N·s/m", |v| v > 0.0)?;
+        check(self.target, "target", "in (0, 1)", |v| v > 0.0 && v < 1.0)?;
+        check(self.max_time, "max time", "> 0 s", |v| v > 0.0)?;
+        if self.particles == 0 {
+            return Err(Error::input("particles: 0 is not allowed (need ≥ 1)"));
+        }
+        let n = &self.numerics;
+        check(n.rotation_step, "rotation step", "in (0, 0.5] rad", |v| {
+            v > 0.0 && v <= 0.5
+        })?;
+        check(n.friction_regularization, "friction regularization", "in (0, 1]", |v| {
+            v > 0.0 && v <= 1.0
+        })?;
+        Ok(())
+    }
+
+    /// Reduced field h = H/H_K.
+    pub fn reduced_field(&self) -> f64 {
+        self.field / self.material.anisotropy_field()
+    }
+
+    /// The packing-relevant part of these parameters.
+    pub fn packing(&self) -> PackingParams {
+        PackingParams {
+            particles: self.particles,
+            mean_diameter: self.mean_diameter,
+            diameter_sigma: self.diameter_sigma,
+            youngs_modulus: self.material.youngs_modulus,
+            poisson_ratio: self.material.poisson_ratio,
+            numerics: self.numerics.clone(),
+        }
+    }
+
+    /// The reduced unit system of this run.
+    pub fn scales(&self) -> Scales {
+        Scales::new(self.mean_diameter, self.material.youngs_modulus, self.damping)
+    }
+}
+
+fn check(value: f64, name: &str, allowed: &str, ok: impl Fn(f64) -> bool) -> Result<()> {
+    if value.is_finite() && ok(value) {
+        Ok(())
+    } else {
+        Err(Error::input(format!("{name}: {value} is not allowed ({allowed})")))
+    }
+}
+
+/// Reduced units: length R_av = D_av/2, force E R_av², time t_char = γ/(E R_av). In them the
+/// translational drag coefficient is 1 and the rotational one of a particle of radius r is r².
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Scales {
+    /// Length unit R_av, m.
+    pub length: f64,
+    /// Force unit E R_av², N.
+    pub force: f64,
+    /// Time unit t_char = γ/(E R_av), s.
+    pub time: f64,
+}
+
+impl Scales {
+    /// Scales for mean diameter D_av (m), Young's modulus E (Pa) and damping γ (N·s/m).
+    pub fn new(mean_diameter: f64, youngs_modulus: f64, damping: f64) -> Self {
+        let length = 0.5 * mean_diameter;
+        Self {
+            length,
+            force: youngs_modulus * length * length,
+            time: damping / (youngs_modulus * length),
+        }
+    }
+
+    /// Stress unit E, Pa (force / length²).
+    pub fn stress(&self) -> f64 {
+        self.force / (self.length * self.length)
+    }
+}

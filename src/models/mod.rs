@@ -1,0 +1,4 @@
+//! The particle models. Each has the same shape: parameters (with units and defaults), state,
+//! forces, integrator step, observables.
+
+pub mod align;

@@ -1,0 +1,4 @@
+//! Small numerical building blocks shared by the models.
+
+pub mod quadrature;
+pub mod roots;

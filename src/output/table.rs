@@ -1,0 +1,534 @@
+//! A small column-oriented table, written to and read from Parquet.
+//!
+//! The rest of the crate builds [`Table`]s from plain `Vec`s; polars is used only inside
+//! [`write_parquet`] and [`read_parquet`], so no polars type leaks out of this module.
+//!
+//! Type round trip: every [`ColumnData`] variant reads back as itself. [`write_parquet`]
+//! records the variant of each column in the file's key-value metadata (key
+//! `magopt.column_kinds`), so an [`ColumnData::OptF64`] column without any `None` still reads
+//! back as `OptF64`. For Parquet files written by other tools (no such metadata), a nullable
+//! float column reads as `OptF64` if it holds at least one null and as `F64` otherwise;
+//! other integer widths, floats and types are rejected with [`Error::Output`].
+
+use std::io::Cursor;
+use std::path::Path;
+
+use polars::prelude as pl;
+use polars::prelude::{IntoSeries, NewChunkedArray, SerReader};
+
+use super::atomic::write_atomic;
+use crate::{Error, Result};
+
+/// Key of the Parquet key-value metadata entry that records the column variants.
+const KINDS_KEY: &str = "magopt.column_kinds";
+
+/// The values of one column.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ColumnData {
+    /// 64-bit floats (NaN and infinities allowed).
+    F64(Vec<f64>),
+    /// 64-bit floats with missing values.
+    OptF64(Vec<Option<f64>>),
+    /// Signed 64-bit integers.
+    I64(Vec<i64>),
+    /// Unsigned 64-bit integers (seeds, counts).
+    U64(Vec<u64>),
+    /// UTF-8 strings.
+    Str(Vec<String>),
+    /// Booleans.
+    Bool(Vec<bool>),
+}
+
+impl ColumnData {
+    /// Number of values.
+    pub fn len(&self) -> usize {
+        match self {
+            ColumnData::F64(v) => v.len(),
+            ColumnData::OptF64(v) => v.len(),
+            ColumnData::I64(v) => v.len(),
+            ColumnData::U64(v) => v.len(),
+            ColumnData::Str(v) => v.len(),
+            ColumnData::Bool(v) => v.len(),
+        }
+    }
+
+    /// True if the column holds no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Short name of the variant (`"f64"`, `"opt_f64"`, `"i64"`, `"u64"`, `"str"`, `"bool"`),
+    /// used in error messages and in the Parquet metadata.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            ColumnData::F64(_) => "f64",
+            ColumnData::OptF64(_) => "opt_f64",
+            ColumnData::I64(_) => "i64",
+            ColumnData::U64(_) => "u64",
+            ColumnData::Str(_) => "str",
+            ColumnData::Bool(_) => "bool",
+        }
+    }
+
+    /// Appends the values of `other`, which must be the same variant (checked by the caller).
+    fn extend_from(&mut self, other: &ColumnData) {
+        match (self, other) {
+            (ColumnData::F64(a), ColumnData::F64(b)) => a.extend_from_slice(b),
+            (ColumnData::OptF64(a), ColumnData::OptF64(b)) => a.extend_from_slice(b),
+            (ColumnData::I64(a), ColumnData::I64(b)) => a.extend_from_slice(b),
+            (ColumnData::U64(a), ColumnData::U64(b)) => a.extend_from_slice(b),
+            (ColumnData::Str(a), ColumnData::Str(b)) => a.extend_from_slice(b),
+            (ColumnData::Bool(a), ColumnData::Bool(b)) => a.extend_from_slice(b),
+            (a, b) => unreachable!(
+                "column kinds checked before extend: {} vs {}",
+                a.kind(),
+                b.kind()
+            ),
+        }
+    }
+}
+
+/// A named column.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Column {
+    /// Column name (unique within its table).
+    pub name: String,
+    /// Column values.
+    pub data: ColumnData,
+}
+
+/// An ordered set of equally long, uniquely named columns.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Table {
+    /// The columns, in output order.
+    pub columns: Vec<Column>,
+}
+
+impl Table {
+    /// An empty table (no columns, no rows).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Builder form of [`Table::push`].
+    ///
+    /// # Panics
+    /// As [`Table::push`].
+    #[must_use]
+    pub fn with(mut self, name: &str, data: ColumnData) -> Self {
+        self.push(name, data);
+        self
+    }
+
+    /// Adds a column at the end.
+    ///
+    /// # Panics
+    /// If `data` is not as long as the existing columns or `name` is already used: both are
+    /// programming errors.
+    pub fn push(&mut self, name: &str, data: ColumnData) {
+        if let Some(first) = self.columns.first() {
+            assert!(
+                first.data.len() == data.len(),
+                "column '{name}' has {} rows but column '{}' has {}",
+                data.len(),
+                first.name,
+                first.data.len()
+            );
+        }
+        assert!(
+            self.column(name).is_none(),
+            "duplicate column name '{name}'"
+        );
+        self.columns.push(Column {
+            name: name.to_string(),
+            data,
+        });
+    }
+
+    /// Number of rows (0 for a table without columns).
+    pub fn n_rows(&self) -> usize {
+        self.columns.first().map_or(0, |c| c.data.len())
+    }
+
+    /// The values of the column called `name`, if any.
+    pub fn column(&self, name: &str) -> Option<&ColumnData> {
+        self.columns
+            .iter()
+            .find(|c| c.name == name)
+            .map(|c| &c.data)
+    }
+
+    /// Append the rows of `other`, which must have the same column names and types in the
+    /// same order. Appending to a table without columns makes it a copy of `other`.
+    ///
+    /// # Errors
+    /// [`Error::Output`] if the column layouts differ; `self` is then left unchanged.
+    pub fn append(&mut self, other: &Table) -> Result<()> {
+        if self.columns.is_empty() {
+            self.columns = other.columns.clone();
+            return Ok(());
+        }
+        let layout = |t: &Table| {
+            t.columns
+                .iter()
+                .map(|c| format!("{}: {}", c.name, c.data.kind()))
+                .collect::<Vec<_>>()
+        };
+        let (mine, theirs) = (layout(self), layout(other));
+        if mine != theirs {
+            return Err(Error::Output(format!(
+                "cannot append table with columns [{}] to table with columns [{}]",
+                theirs.join(", "),
+                mine.join(", ")
+            )));
+        }
+        for (a, b) in self.columns.iter_mut().zip(&other.columns) {
+            a.data.extend_from(&b.data);
+        }
+        Ok(())
+    }
+}
+
+/// Converts one column to a polars column.
+fn to_polars(col: &Column) -> pl::Column {
+    let name = pl::PlSmallStr::from(col.name.as_str());
+    let series = match &col.data {
+        ColumnData::F64(v) => pl::Float64Chunked::from_vec(name, v.clone()).into_series(),
+        ColumnData::OptF64(v) => pl::Float64Chunked::from_slice_options(name, v).into_series(),
+        ColumnData::I64(v) => pl::Int64Chunked::from_vec(name, v.clone()).into_series(),
+        ColumnData::U64(v) => pl::UInt64Chunked::from_vec(name, v.clone()).into_series(),
+        ColumnData::Str(v) => {
+            pl::StringChunked::from_iter_values(name, v.iter().map(String::as_str)).into_series()
+        }
+        ColumnData::Bool(v) => pl::BooleanChunked::from_slice(name, v).into_series(),
+    };
+    pl::Column::from(series)
+}
+
+/// Write as Parquet (zstd-compressed) atomically: the file is built in memory, then written
+/// with [`write_atomic`] (temporary file + rename). The column variants are recorded in the
+/// file metadata so that [`read_parquet`] restores them exactly.
+///
+/// # Errors
+/// [`Error::Output`] if the table has no columns or polars fails to encode it;
+/// [`Error::Io`] if the file cannot be written.
+pub fn write_parquet(path: &Path, table: &Table) -> Result<()> {
+    let fail = |msg: String| Error::Output(format!("cannot write '{}': {msg}", path.display()));
+    if table.columns.is_empty() {
+        return Err(fail("the table has no columns".to_string()));
+    }
+    let columns: Vec<pl::Column> = table.columns.iter().map(to_polars).collect();
+    let mut df = pl::DataFrame::new(table.n_rows(), columns).map_err(|e| fail(e.to_string()))?;
+    let kinds: Vec<&str> = table.columns.iter().map(|c| c.data.kind()).collect();
+    let kinds_json = serde_json::Value::from(kinds).to_string();
+    let mut bytes = Vec::new();
+    pl::ParquetWriter::new(&mut bytes)
+        .with_compression(pl::ParquetCompression::Zstd(None))
+        .with_key_value_metadata(Some(pl::KeyValueMetadata::from_static(vec![(
+            KINDS_KEY.to_string(),
+            kinds_json,
+        )])))
+        .finish(&mut df)
+        .map_err(|e| fail(e.to_string()))?;
+    write_atomic(path, &bytes)
+}
+
+/// Converts a polars column back, as the variant `kind` if known (from the metadata), else
+/// inferred from the polars type.
+fn from_polars(col: &pl::Column, kind: Option<&str>) -> std::result::Result<ColumnData, String> {
+    let nulls = col.null_count();
+    let no_nulls = |what: &str| {
+        if nulls > 0 {
+            Err(format!("{what} column holds {nulls} null value(s)"))
+        } else {
+            Ok(())
+        }
+    };
+    let err = |e: pl::PolarsError| e.to_string();
+    let data = match (col.dtype(), kind) {
+        (pl::DataType::Float64, Some("opt_f64")) => {
+            ColumnData::OptF64(col.f64().map_err(err)?.iter().collect())
+        }
+        (pl::DataType::Float64, None) if nulls > 0 => {
+            ColumnData::OptF64(col.f64().map_err(err)?.iter().collect())
+        }
+        (pl::DataType::Float64, Some("f64") | None) => {
+            no_nulls("f64")?;
+            ColumnData::F64(col.f64().map_err(err)?.into_no_null_iter().collect())
+        }
+        (pl::DataType::Int64, Some("i64") | None) => {
+            no_nulls("i64")?;
+            ColumnData::I64(col.i64().map_err(err)?.into_no_null_iter().collect())
+        }
+        (pl::DataType::UInt64, Some("u64") | None) => {
+            no_nulls("u64")?;
+            ColumnData::U64(col.u64().map_err(err)?.into_no_null_iter().collect())
+        }
+        (pl::DataType::String, Some("str") | None) => {
+            no_nulls("str")?;
+            ColumnData::Str(
+                col.str()
+                    .map_err(err)?
+                    .iter()
+                    .flatten()
+                    .map(str::to_string)
+                    .collect(),
+            )
+        }
+        (pl::DataType::Boolean, Some("bool") | None) => {
+            no_nulls("bool")?;
+            ColumnData::Bool(col.bool().map_err(err)?.iter().flatten().collect())
+        }
+        (dtype, Some(kind)) => {
+            return Err(format!(
+                "stored type {dtype} does not match recorded kind '{kind}'"
+            ))
+        }
+        (dtype, None) => return Err(format!("unsupported column type {dtype}")),
+    };
+    Ok(data)
+}
+
+/// Read a Parquet file written by [`write_parquet`] back into a [`Table`]. Every variant
+/// round-trips exactly (including NaN, `None`, empty strings and zero-row tables); see the
+/// module documentation for files written by other tools.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be read; [`Error::Output`] if it is not valid Parquet or
+/// holds a column type [`ColumnData`] cannot represent.
+pub fn read_parquet(path: &Path) -> Result<Table> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let fail = |msg: String| Error::Output(format!("cannot read '{}': {msg}", path.display()));
+    let mut reader = pl::ParquetReader::new(Cursor::new(bytes));
+    let metadata = reader
+        .get_metadata()
+        .map_err(|e| fail(e.to_string()))?
+        .clone();
+    let kinds: Option<Vec<String>> = metadata
+        .key_value_metadata()
+        .as_ref()
+        .and_then(|kv| kv.iter().find(|e| e.key == KINDS_KEY))
+        .and_then(|e| e.value.as_deref())
+        .and_then(|v| serde_json::from_str(v).ok());
+    let df = reader.finish().map_err(|e| fail(e.to_string()))?;
+    let kinds = kinds.filter(|k| k.len() == df.width());
+    let mut table = Table::new();
+    for (i, col) in df.columns().iter().enumerate() {
+        let kind = kinds.as_ref().map(|k| k[i].as_str());
+        let data = from_polars(col, kind)
+            .map_err(|msg| fail(format!("column '{}': {msg}", col.name())))?;
+        table.columns.push(Column {
+            name: col.name().to_string(),
+            data,
+        });
+    }
+    Ok(table)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::atomic::tests::test_dir;
+
+    fn sample() -> Table {
+        Table::new()
+            .with(
+                "f",
+                ColumnData::F64(vec![1.5, f64::NAN, -0.0, f64::INFINITY, 1e-300]),
+            )
+            .with(
+                "of",
+                ColumnData::OptF64(vec![Some(1.0), None, Some(f64::NAN), None, Some(-2.5)]),
+            )
+            .with("i", ColumnData::I64(vec![i64::MIN, -1, 0, 1, i64::MAX]))
+            .with("u", ColumnData::U64(vec![0, 1, 2, u64::MAX, 42]))
+            .with(
+                "s",
+                ColumnData::Str(
+                    ["", "a", "ünïcödé μ0", "", "with \"quotes\", commas"]
+                        .map(String::from)
+                        .to_vec(),
+                ),
+            )
+            .with("b", ColumnData::Bool(vec![true, false, false, true, true]))
+    }
+
+    /// Bitwise comparison, so that NaN == NaN and -0.0 != 0.0.
+    fn assert_same(a: &Table, b: &Table) {
+        assert_eq!(a.columns.len(), b.columns.len());
+        for (x, y) in a.columns.iter().zip(&b.columns) {
+            assert_eq!(x.name, y.name);
+            match (&x.data, &y.data) {
+                (ColumnData::F64(p), ColumnData::F64(q)) => {
+                    let p: Vec<u64> = p.iter().map(|v| v.to_bits()).collect();
+                    let q: Vec<u64> = q.iter().map(|v| v.to_bits()).collect();
+                    assert_eq!(p, q, "column {}", x.name);
+                }
+                (ColumnData::OptF64(p), ColumnData::OptF64(q)) => {
+                    let p: Vec<_> = p.iter().map(|v| v.map(f64::to_bits)).collect();
+                    let q: Vec<_> = q.iter().map(|v| v.map(f64::to_bits)).collect();
+                    assert_eq!(p, q, "column {}", x.name);
+                }
+                (p, q) => assert_eq!(p, q, "column {}", x.name),
+            }
+        }
+    }
+
+    #[test]
+    fn builder_and_accessors() {
+        let t = sample();
+        assert_eq!(t.n_rows(), 5);
+        assert_eq!(
+            t.column("i"),
+            Some(&ColumnData::I64(vec![i64::MIN, -1, 0, 1, i64::MAX]))
+        );
+        assert!(t.column("missing").is_none());
+        assert_eq!(Table::new().n_rows(), 0);
+        let mut t2 = Table::new();
+        t2.push("x", ColumnData::F64(vec![]));
+        assert_eq!(t2.n_rows(), 0);
+        assert!(t2.column("x").unwrap().is_empty());
+    }
+
+    #[test]
+    #[should_panic(expected = "has 2 rows")]
+    fn push_with_wrong_length_panics() {
+        let _ = Table::new()
+            .with("a", ColumnData::F64(vec![1.0]))
+            .with("b", ColumnData::I64(vec![1, 2]));
+    }
+
+    #[test]
+    #[should_panic(expected = "duplicate column name 'a'")]
+    fn push_duplicate_name_panics() {
+        let _ = Table::new()
+            .with("a", ColumnData::F64(vec![1.0]))
+            .with("a", ColumnData::I64(vec![1]));
+    }
+
+    #[test]
+    fn parquet_round_trip_every_type() {
+        let dir = test_dir("parquet");
+        let path = dir.join("t.parquet");
+        let t = sample();
+        write_parquet(&path, &t).unwrap();
+        let back = read_parquet(&path).unwrap();
+        assert_same(&t, &back);
+        // Overwrite in place, no temp files left behind.
+        write_parquet(&path, &t).unwrap();
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert_eq!(names.len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn parquet_round_trip_opt_f64_without_nulls_stays_opt() {
+        let dir = test_dir("parquet-opt");
+        let path = dir.join("t.parquet");
+        let t = Table::new()
+            .with("of", ColumnData::OptF64(vec![Some(1.0), Some(f64::NAN)]))
+            .with("f", ColumnData::F64(vec![2.0, 3.0]));
+        write_parquet(&path, &t).unwrap();
+        assert_same(&t, &read_parquet(&path).unwrap());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn parquet_round_trip_zero_rows() {
+        let dir = test_dir("parquet-empty");
+        let path = dir.join("t.parquet");
+        let t = Table::new()
+            .with("f", ColumnData::F64(vec![]))
+            .with("of", ColumnData::OptF64(vec![]))
+            .with("i", ColumnData::I64(vec![]))
+            .with("u", ColumnData::U64(vec![]))
+            .with("s", ColumnData::Str(vec![]))
+            .with("b", ColumnData::Bool(vec![]));
+        write_parquet(&path, &t).unwrap();
+        let back = read_parquet(&path).unwrap();
+        assert_eq!(back.n_rows(), 0);
+        assert_same(&t, &back);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn parquet_rejects_table_without_columns() {
+        let dir = test_dir("parquet-nocols");
+        let err = write_parquet(&dir.join("t.parquet"), &Table::new()).unwrap_err();
+        assert!(
+            matches!(err, Error::Output(ref m) if m.contains("no columns")),
+            "{err:?}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn read_parquet_errors() {
+        let dir = test_dir("parquet-bad");
+        let missing = dir.join("missing.parquet");
+        assert!(matches!(read_parquet(&missing), Err(Error::Io { .. })));
+        let garbage = dir.join("garbage.parquet");
+        std::fs::write(&garbage, b"not a parquet file at all").unwrap();
+        let err = read_parquet(&garbage).unwrap_err();
+        assert!(
+            matches!(err, Error::Output(ref m) if m.contains("garbage.parquet")),
+            "{err:?}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn append_rows_and_layout_check() {
+        let mut acc = Table::new();
+        acc.append(&sample()).unwrap();
+        acc.append(&sample()).unwrap();
+        assert_eq!(acc.n_rows(), 10);
+        assert_eq!(
+            acc.column("u"),
+            Some(&ColumnData::U64(vec![
+                0,
+                1,
+                2,
+                u64::MAX,
+                42,
+                0,
+                1,
+                2,
+                u64::MAX,
+                42
+            ]))
+        );
+        let before = acc.clone();
+        // Same names, different type.
+        let mut wrong = sample();
+        wrong.columns[2].data = ColumnData::U64(vec![0; 5]);
+        let err = acc.append(&wrong).unwrap_err();
+        assert!(
+            matches!(err, Error::Output(ref m) if m.contains("i: u64")),
+            "{err:?}"
+        );
+        // Different order.
+        let mut swapped = sample();
+        swapped.columns.swap(0, 1);
+        assert!(acc.append(&swapped).is_err());
+        // Missing column.
+        let mut fewer = sample();
+        fewer.columns.pop();
+        assert!(acc.append(&fewer).is_err());
+        assert_same(&acc, &before);
+        // Appending an empty-rows table of the same layout is a no-op.
+        let mut empty = sample();
+        for c in &mut empty.columns {
+            c.data = match &c.data {
+                ColumnData::F64(_) => ColumnData::F64(vec![]),
+                ColumnData::OptF64(_) => ColumnData::OptF64(vec![]),
+                ColumnData::I64(_) => ColumnData::I64(vec![]),
+                ColumnData::U64(_) => ColumnData::U64(vec![]),
+                ColumnData::Str(_) => ColumnData::Str(vec![]),
+                ColumnData::Bool(_) => ColumnData::Bool(vec![]),
+            };
+        }
+        acc.append(&empty).unwrap();
+        assert_eq!(acc.n_rows(), 10);
+    }
+}
