@@ -7,6 +7,8 @@
 
 pub mod dem;
 pub mod ensemble;
+pub mod field_search;
+pub mod report;
 pub mod params;
 pub mod stoner_wohlfarth;
 

@@ -61,13 +61,23 @@ struct Run<'a> {
     unconverged: usize,
 }
 
+/// Fastest possible angular speed (largest particle, torque K V), in 1/t_char, and the
+/// largest radius.
+fn fastest_rotation(params: &AlignParams, packing: &Packing) -> (f64, f64) {
+    let k_red = params.material.anisotropy_constant / params.scales().stress();
+    let r_max = packing.radius.iter().cloned().fold(0.0, f64::max);
+    (k_red * 4.0 / 3.0 * std::f64::consts::PI * r_max, r_max)
+}
+
+/// The alignment time step, s.
+pub fn time_step_s(params: &AlignParams, packing: &Packing) -> f64 {
+    params.numerics.rotation_step / fastest_rotation(params, packing).0 * params.scales().time
+}
+
 impl<'a> Run<'a> {
     fn new(params: &'a AlignParams, packing: &'a Packing) -> Self {
-        let scales = params.scales();
-        let stress = scales.stress();
-        let k_red = params.material.anisotropy_constant / stress;
-        let r_max = packing.radius.iter().cloned().fold(0.0, f64::max);
-        let omega_max = k_red * 4.0 / 3.0 * std::f64::consts::PI * r_max;
+        let k_red = params.material.anisotropy_constant / params.scales().stress();
+        let (omega_max, r_max) = fastest_rotation(params, packing);
         let surface_speed = omega_max * r_max;
         let n = packing.radius.len();
         let nu = params.material.poisson_ratio;

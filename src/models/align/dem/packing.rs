@@ -72,6 +72,31 @@ impl Packing {
         Ok(packing)
     }
 
+    /// A quick stand-in packing for benchmarks: a simple cubic lattice (spacing 2 r_max plus a
+    /// 1 % gap, columns as tall as the die is wide), sizes and orientations drawn as in
+    /// `generate`. Not a physical powder: use `generate` for results.
+    pub fn lattice(params: &PackingParams, seed: u64) -> Self {
+        let radius = sample_radii(params, seed);
+        let spacing = 2.02 * radius.iter().cloned().fold(0.0, f64::max);
+        let per_side = (params.particles as f64).cbrt().ceil() as usize;
+        let per_layer = per_side * per_side;
+        let position = (0..params.particles)
+            .map(|k| {
+                let (layer, cell) = (k / per_layer, k % per_layer);
+                let at = |i: usize| (i as f64 + 0.5) * spacing;
+                Vector3::new(at(cell % per_side), at(cell / per_side), at(layer))
+            })
+            .collect();
+        let side = per_side as f64 * spacing;
+        Self {
+            position,
+            orientation: sample_orientations(params.particles, seed),
+            radius,
+            container: Container { lx: side, ly: side, top: None },
+            steps: [0; 3],
+        }
+    }
+
     /// Overdamped gradient flow until `done`; returns the step count.
     fn flow(
         &mut self,

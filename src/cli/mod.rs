@@ -1,0 +1,101 @@
+//! Command-line interface (spec studies.md, "Command line"). Parsing and printing only: every
+//! computation is a library call. Errors are printed as one line and exit with code 2.
+
+mod align;
+mod bench;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+use crate::materials::MaterialDb;
+use crate::units::{parse_quantity, Dimension};
+use crate::{Error, Result};
+
+/// magopt: simulation-based optimization of magnetic particle processes.
+#[derive(Debug, Parser)]
+#[command(name = "magopt", version, about, long_about = None)]
+pub struct Cli {
+    /// Extra or overriding materials from a TOML file ([[material]] tables with name,
+    /// saturation_magnetization, anisotropy_constant, youngs_modulus, poisson_ratio, density;
+    /// values with units, e.g. "380 emu/cm3").
+    #[arg(long, global = true, value_name = "FILE")]
+    materials: Option<PathBuf>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List the built-in (and --materials) materials with H_K and β.
+    Materials,
+    /// One alignment run: settle a powder, switch on field and pressure, report τ.
+    Align(align::AlignArgs),
+    /// Find the field that aligns the powder fastest (the headline study).
+    OptimizeField(align::OptimizeArgs),
+    /// Benchmarks: DEM particle-steps per second and peak memory.
+    Bench(bench::BenchArgs),
+}
+
+/// Runs the CLI; returns the process exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
+                let _ = e.print();
+                return 0;
+            }
+            let text = e.to_string();
+            let line = text.lines().next().unwrap_or("invalid arguments").trim_start_matches("error: ");
+            eprintln!("magopt: {line}");
+            return 2;
+        }
+    };
+    match run(cli) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("magopt: {}", e.to_string().replace('\n', " "));
+            2
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    let mut db = MaterialDb::builtin();
+    if let Some(path) = &cli.materials {
+        db.load_file(path)?;
+    }
+    match cli.command {
+        Command::Materials => {
+            print!("{}", db.table());
+            Ok(())
+        }
+        Command::Align(args) => align::run_align(&db, &args),
+        Command::OptimizeField(args) => align::run_optimize(&db, &args),
+        Command::Bench(args) => bench::run(&db, &args),
+    }
+}
+
+/// Parses an option value with units, naming the option in the error.
+fn quantity(option: &str, text: &str, dim: Dimension, default_unit: &str) -> Result<f64> {
+    parse_quantity(text, dim, default_unit).map_err(|e| Error::input(format!("--{option}: {e}")))
+}
+
+/// A finite number (dimensionless option).
+fn number(option: &str, value: f64) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(Error::input(format!("--{option}: {value} is not a finite number")))
+    }
+}
+
+/// A count ≥ 1, from text so that negative values get our message rather than a parse error.
+fn count(option: &str, text: &str) -> Result<usize> {
+    match text.trim().parse::<i64>() {
+        Ok(n) if n >= 1 => Ok(n as usize),
+        Ok(n) => Err(Error::input(format!("--{option}: {n} is not allowed (need a whole number ≥ 1)"))),
+        Err(_) => Err(Error::input(format!("--{option}: '{text}' is not a whole number (need ≥ 1)"))),
+    }
+}
