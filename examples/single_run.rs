@@ -6,7 +6,10 @@ use magopt::models::align::{dem, run_ensemble, AlignParams};
 use magopt::units::si_per_unit;
 
 fn main() -> magopt::Result<()> {
-    let args: Vec<f64> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let args: Vec<f64> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
     let arg = |k: usize, default: f64| args.get(k).copied().unwrap_or(default);
     let material = MaterialDb::builtin().get("srfe12o19")?.clone();
     let mut params = AlignParams::paper_defaults(material, arg(1, 40.0) * si_per_unit("kOe"));
@@ -21,7 +24,11 @@ fn main() -> magopt::Result<()> {
     params.numerics.settling_force = arg(8, params.numerics.settling_force);
     let started = std::time::Instant::now();
     let packing = dem::Packing::generate(&params.packing(), 1).map_err(magopt::Error::Output)?;
-    println!("packing: {:?} steps in {:.2} s", packing.steps, started.elapsed().as_secs_f64());
+    println!(
+        "packing: {:?} steps in {:.2} s",
+        packing.steps,
+        started.elapsed().as_secs_f64()
+    );
     let outcome = dem::align(&params, &packing);
     println!(
         "DEM: status {:?}, tau {:?} s, tau90 {:?} s, A_end {:.4}, steps {}, sweeps {}, unconverged {}, phi {:?}, applied/nominal force {:?}/{:?} N, {:.2} s wall",
@@ -30,6 +37,9 @@ fn main() -> magopt::Result<()> {
         outcome.applied_force_n, outcome.nominal_force_n, outcome.wall_time_s
     );
     let ensemble = run_ensemble(&params);
-    println!("ensemble: tau {:?} s, tau90 {:?} s", ensemble.alignment_time_s, ensemble.alignment_time_90_s);
+    println!(
+        "ensemble: tau {:?} s, tau90 {:?} s",
+        ensemble.alignment_time_s, ensemble.alignment_time_90_s
+    );
     Ok(())
 }

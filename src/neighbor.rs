@@ -165,14 +165,22 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let n = 400;
         let positions: Vec<Vector3<f64>> = (0..n)
-            .map(|_| Vector3::new(rng.random::<f64>() * 20.0, rng.random::<f64>() * 10.0, rng.random::<f64>() * 5.0))
+            .map(|_| {
+                Vector3::new(
+                    rng.random::<f64>() * 20.0,
+                    rng.random::<f64>() * 10.0,
+                    rng.random::<f64>() * 5.0,
+                )
+            })
             .collect();
         let radii: Vec<f64> = (0..n).map(|_| 0.8 + 0.4 * rng.random::<f64>()).collect();
         let mut list = NeighborList::new(0.3);
         list.build(&positions, &radii);
         for i in 0..n {
             let brute: Vec<u32> = (0..n)
-                .filter(|&j| j != i && (positions[j] - positions[i]).norm() < radii[i] + radii[j] + 0.3)
+                .filter(|&j| {
+                    j != i && (positions[j] - positions[i]).norm() < radii[i] + radii[j] + 0.3
+                })
                 .map(|j| j as u32)
                 .collect();
             assert_eq!(list.of(i), &brute[..], "particle {i}");

@@ -126,12 +126,20 @@ pub fn minimize_log_scale(
     evaluate: impl FnMut(f64) -> Vec<Option<f64>>,
 ) -> Optimum {
     let points = RefCell::new(Vec::new());
-    let objective = Objective { evaluate: RefCell::new(evaluate), points: &points, penalty };
+    let objective = Objective {
+        evaluate: RefCell::new(evaluate),
+        points: &points,
+        penalty,
+    };
     let (lo, hi) = (settings.lower.ln(), settings.upper.ln());
     let n = settings.scan_points.max(3);
-    let grid: Vec<f64> = (0..n).map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64).collect();
+    let grid: Vec<f64> = (0..n)
+        .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
+        .collect();
     let scores: Vec<f64> = grid.iter().map(|u| objective.at(u.exp())).collect();
-    let best = (0..n).min_by(|&a, &b| scores[a].total_cmp(&scores[b])).unwrap();
+    let best = (0..n)
+        .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
+        .unwrap();
     let (a, b) = (grid[best.saturating_sub(1)], grid[(best + 1).min(n - 1)]);
     if settings.brent_iterations > 0 && scores[best] < penalty {
         let tol = settings.rel_tolerance;
@@ -157,11 +165,18 @@ impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for &Objective<'_, F> {
 
 fn summarize(points: Vec<Point>, band: f64, penalty: f64) -> Optimum {
     let scores: Vec<f64> = points.iter().map(|p| score(p, penalty)).collect();
-    let best = (0..points.len()).min_by(|&a, &b| scores[a].total_cmp(&scores[b])).unwrap();
+    let best = (0..points.len())
+        .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
+        .unwrap();
     let replicates = points[0].values.len();
-    let minima: Vec<f64> = (0..replicates).filter_map(|r| replicate_minimum(&points, r)).collect();
+    let minima: Vec<f64> = (0..replicates)
+        .filter_map(|r| replicate_minimum(&points, r))
+        .collect();
     let uncertainty = if minima.len() >= 2 {
-        let single = Point { x: 0.0, values: minima.iter().map(|&m| Some(m)).collect() };
+        let single = Point {
+            x: 0.0,
+            values: minima.iter().map(|&m| Some(m)).collect(),
+        };
         single.std() / (minima.len() as f64).sqrt()
     } else {
         f64::NAN
@@ -179,7 +194,10 @@ fn summarize(points: Vec<Point>, band: f64, penalty: f64) -> Optimum {
 /// Replicate r's minimum: vertex of the parabola in ln x through its best point and the two
 /// neighbours (the best point itself at an end or if the parabola is not convex).
 fn replicate_minimum(points: &[Point], r: usize) -> Option<f64> {
-    let data: Vec<(f64, f64)> = points.iter().filter_map(|p| p.values[r].map(|v| (p.x.ln(), v))).collect();
+    let data: Vec<(f64, f64)> = points
+        .iter()
+        .filter_map(|p| p.values[r].map(|v| (p.x.ln(), v)))
+        .collect();
     let k = (0..data.len()).min_by(|&a, &b| data[a].1.total_cmp(&data[b].1))?;
     if k == 0 || k + 1 == data.len() {
         return Some(data[k].0.exp());
@@ -210,8 +228,16 @@ fn band_around(points: &[Point], scores: &[f64], best: usize, level: f64) -> (f6
     while hi + 1 < points.len() && scores[hi + 1] <= level {
         hi += 1;
     }
-    let low = if lo == 0 { points[0].x } else { cross(lo, lo - 1) };
-    let high = if hi + 1 == points.len() { points[hi].x } else { cross(hi, hi + 1) };
+    let low = if lo == 0 {
+        points[0].x
+    } else {
+        cross(lo, lo - 1)
+    };
+    let high = if hi + 1 == points.len() {
+        points[hi].x
+    } else {
+        cross(hi, hi + 1)
+    };
     (low, high)
 }
 
@@ -222,7 +248,14 @@ mod tests {
     #[test]
     fn finds_minimum_of_a_smooth_function_and_its_band() {
         // f(x) = 1 + (ln x − ln 30)²: minimum at 30, band f ≤ 1.02 ⇔ |ln x − ln 30| ≤ √0.02.
-        let settings = Settings { lower: 5.0, upper: 100.0, scan_points: 7, brent_iterations: 40, rel_tolerance: 1e-8, band: 0.02 };
+        let settings = Settings {
+            lower: 5.0,
+            upper: 100.0,
+            scan_points: 7,
+            brent_iterations: 40,
+            rel_tolerance: 1e-8,
+            band: 0.02,
+        };
         let opt = minimize_log_scale(&settings, 1e9, |x| {
             let f = 1.0 + (x.ln() - 30f64.ln()).powi(2);
             vec![Some(f), Some(f)]
@@ -230,8 +263,16 @@ mod tests {
         assert!((opt.x / 30.0 - 1.0).abs() < 1e-4, "{}", opt.x);
         let w = 0.02f64.sqrt();
         // interpolation between evaluated points: the band is approximate but close
-        assert!((opt.band.0.ln() - (30f64.ln() - w)).abs() < 0.05, "{:?}", opt.band);
-        assert!((opt.band.1.ln() - (30f64.ln() + w)).abs() < 0.05, "{:?}", opt.band);
+        assert!(
+            (opt.band.0.ln() - (30f64.ln() - w)).abs() < 0.05,
+            "{:?}",
+            opt.band
+        );
+        assert!(
+            (opt.band.1.ln() - (30f64.ln() + w)).abs() < 0.05,
+            "{:?}",
+            opt.band
+        );
         assert_eq!(opt.uncertainty, 0.0);
     }
 
@@ -239,7 +280,14 @@ mod tests {
     fn replicate_spread_gives_uncertainty() {
         // Two replicates with minima at 20 and 40: the mean's minimum is between, the standard
         // error of the two minima is |ln-space parabola vertices| spread / √2.
-        let settings = Settings { lower: 5.0, upper: 100.0, scan_points: 9, brent_iterations: 40, rel_tolerance: 1e-8, band: 0.02 };
+        let settings = Settings {
+            lower: 5.0,
+            upper: 100.0,
+            scan_points: 9,
+            brent_iterations: 40,
+            rel_tolerance: 1e-8,
+            band: 0.02,
+        };
         let opt = minimize_log_scale(&settings, 1e9, |x| {
             let a = 1.0 + (x.ln() - 20f64.ln()).powi(2);
             let b = 1.0 + (x.ln() - 40f64.ln()).powi(2);

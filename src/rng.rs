@@ -3,8 +3,8 @@
 //! purpose, so adding a new random ingredient never shifts the numbers of the others, and the
 //! same (parameters, seed) gives bit-identical results on every platform and thread count.
 
-use rand_chacha::ChaCha8Rng;
 use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 
 /// What a random stream is used for (its stream number).
 #[derive(Debug, Clone, Copy)]

@@ -23,7 +23,11 @@ fn single_particle(theta0: f64) -> Packing {
         radius: vec![1.0],
         position: vec![Vector3::new(5.0, 5.0, 5.0)],
         orientation: vec![UnitQuaternion::from_axis_angle(&Vector3::y_axis(), theta0)],
-        container: Container { lx: 10.0, ly: 10.0, top: None },
+        container: Container {
+            lx: 10.0,
+            ly: 10.0,
+            top: None,
+        },
         steps: [0; 3],
     }
 }
@@ -32,7 +36,11 @@ fn single_particle(theta0: f64) -> Packing {
 fn ode_cos_theta(params: &AlignParams, theta0: f64, t_end: f64) -> f64 {
     use magopt::models::align::stoner_wohlfarth::equilibrium;
     let h = params.reduced_field();
-    let rate = 4.0 * std::f64::consts::PI * params.material.anisotropy_constant * 0.5 * params.mean_diameter
+    let rate = 4.0
+        * std::f64::consts::PI
+        * params.material.anisotropy_constant
+        * 0.5
+        * params.mean_diameter
         / (3.0 * params.damping);
     let f = |th: f64| -rate * equilibrium(th.sin(), th.cos(), h).torque_factor;
     let n = 20_000;
@@ -62,7 +70,9 @@ fn free_particle_rotates_as_the_ensemble_ode_with_second_order_convergence() {
         errors.push((a - ode_cos_theta(&params, theta0, t)).abs());
     }
     assert!(errors[2] < 1e-4, "{errors:?}");
-    let order = (errors[0] / errors[1]).log2().min((errors[1] / errors[2]).log2());
+    let order = (errors[0] / errors[1])
+        .log2()
+        .min((errors[1] / errors[2]).log2());
     assert!(order > 1.8, "Heun must be second order: errors {errors:?}");
 }
 
@@ -74,7 +84,8 @@ fn ensemble_depends_on_the_field_only_through_h() {
         let m = db.get(name).unwrap().clone();
         let field = h * m.anisotropy_field();
         let p = AlignParams::paper_defaults(m, field);
-        let k = 4.0 * std::f64::consts::PI * p.material.anisotropy_constant * 0.5 * p.mean_diameter / (3.0 * p.damping);
+        let k = 4.0 * std::f64::consts::PI * p.material.anisotropy_constant * 0.5 * p.mean_diameter
+            / (3.0 * p.damping);
         run_ensemble(&p).alignment_time_s.unwrap() * k
     };
     for h in [0.5, 1.5, 2.2, 4.0] {
@@ -90,7 +101,14 @@ fn ensemble_depends_on_the_field_only_through_h() {
             model: ModelKind::Ensemble,
             replicates: 1,
             seed: 1,
-            settings: Settings { lower: 0.25 * hk, upper: 6.0 * hk, scan_points: 9, brent_iterations: 30, rel_tolerance: 1e-6, band: 0.02 },
+            settings: Settings {
+                lower: 0.25 * hk,
+                upper: 6.0 * hk,
+                scan_points: 9,
+                brent_iterations: 30,
+                rel_tolerance: 1e-6,
+                band: 0.02,
+            },
         };
         search.run(&|| {}, |_| {}).optimum.x / hk
     };
@@ -104,8 +122,17 @@ fn contact_forces_obey_action_equals_reaction() {
     params.particles = 150;
     let packing = Packing::generate(&params.packing(), 3).unwrap();
     // squeeze the settled bed a little so that many contacts carry force
-    let position: Vec<Vector3<f64>> = packing.position.iter().map(|p| Vector3::new(p.x, p.y, 0.97 * p.z)).collect();
-    let law = ContactLaw { effective_modulus: 0.54, friction: 0.2, wall_friction: 0.2, skin: 0.1 };
+    let position: Vec<Vector3<f64>> = packing
+        .position
+        .iter()
+        .map(|p| Vector3::new(p.x, p.y, 0.97 * p.z))
+        .collect();
+    let law = ContactLaw {
+        effective_modulus: 0.54,
+        friction: 0.2,
+        wall_friction: 0.2,
+        skin: 0.1,
+    };
     let mut list = NeighborList::new(0.3);
     list.build(&position, &packing.radius);
     let mut contacts = ContactSet::default();
@@ -114,7 +141,11 @@ fn contact_forces_obey_action_equals_reaction() {
     let mut scale: f64 = 0.0;
     let mut pairs = 0;
     for i in 0..position.len() {
-        for c in contacts.of(i).iter().filter(|c| c.partner != WALL && c.overlap > 0.0) {
+        for c in contacts
+            .of(i)
+            .iter()
+            .filter(|c| c.partner != WALL && c.overlap > 0.0)
+        {
             let f = -c.normal_force_at(c.overlap) * c.normal;
             total += f;
             scale = scale.max(f.norm());
@@ -122,7 +153,10 @@ fn contact_forces_obey_action_equals_reaction() {
         }
     }
     assert!(pairs > 100, "{pairs} loaded contacts");
-    assert!(total.norm() <= 1e-15 * scale * pairs as f64, "net pair force {total} (scale {scale})");
+    assert!(
+        total.norm() <= 1e-15 * scale * pairs as f64,
+        "net pair force {total} (scale {scale})"
+    );
 }
 
 #[test]
@@ -133,11 +167,20 @@ fn frictionless_dem_matches_the_ensemble_within_replicate_noise() {
     params.particles = 300;
     params.friction = 0.0;
     params.wall_friction = 0.0;
-    let taus: Vec<f64> = (1..=4).map(|seed| run_once(&params, ModelKind::Dem, seed).alignment_time_s.unwrap()).collect();
+    let taus: Vec<f64> = (1..=4)
+        .map(|seed| {
+            run_once(&params, ModelKind::Dem, seed)
+                .alignment_time_s
+                .unwrap()
+        })
+        .collect();
     let mean = taus.iter().sum::<f64>() / 4.0;
     let std = (taus.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 3.0).sqrt();
     let ensemble = run_ensemble(&params).alignment_time_s.unwrap();
-    assert!((mean - ensemble).abs() < 3.0 * std / 2.0 + 0.01 * ensemble, "DEM {taus:?} vs ensemble {ensemble}");
+    assert!(
+        (mean - ensemble).abs() < 3.0 * std / 2.0 + 0.01 * ensemble,
+        "DEM {taus:?} vs ensemble {ensemble}"
+    );
 }
 
 #[test]
@@ -150,31 +193,54 @@ fn alignment_converges_in_time_step_and_friction_regularization() {
         p.numerics.rotation_step = step;
         p.numerics.friction_regularization = reg;
         let out = dem::align(&p, &packing);
-        (out.alignment_time_s.unwrap(), out.alignment_time_90_s.unwrap())
+        (
+            out.alignment_time_s.unwrap(),
+            out.alignment_time_90_s.unwrap(),
+        )
     };
     let steps: Vec<f64> = [0.1, 0.05, 0.025].iter().map(|&s| tau(s, 1e-2).0).collect();
     let coarse = (steps[0] - steps[1]).abs();
     let fine = (steps[1] - steps[2]).abs();
     assert!(fine < 0.01 * steps[2], "dt: {steps:?}");
-    assert!(fine < coarse, "dt refinement must shrink the change: {steps:?}");
+    assert!(
+        fine < coarse,
+        "dt refinement must shrink the change: {steps:?}"
+    );
     let regs: Vec<f64> = [1e-1, 1e-2, 1e-3].iter().map(|&r| tau(0.05, r).1).collect();
-    assert!((regs[1] - regs[2]).abs() < 0.01 * regs[2], "v_eps: {regs:?}");
-    assert!((regs[1] - regs[2]).abs() < (regs[0] - regs[1]).abs(), "v_eps: {regs:?}");
+    assert!(
+        (regs[1] - regs[2]).abs() < 0.01 * regs[2],
+        "v_eps: {regs:?}"
+    );
+    assert!(
+        (regs[1] - regs[2]).abs() < (regs[0] - regs[1]).abs(),
+        "v_eps: {regs:?}"
+    );
 }
 
 #[test]
 fn results_are_bit_identical_at_one_and_two_threads() {
     let mut params = sr_ferrite(40.0);
     params.particles = 80;
+    params.numerics.parallel_from = 0; // exercise the parallel sweep inside each run
     let search = FieldSearch {
         base: params,
         model: ModelKind::Dem,
         replicates: 3,
         seed: 11,
-        settings: Settings { lower: 1.0, upper: 2.0, scan_points: 3, brent_iterations: 0, rel_tolerance: 1e-3, band: 0.02 },
+        settings: Settings {
+            lower: 1.0,
+            upper: 2.0,
+            scan_points: 3,
+            brent_iterations: 0,
+            rel_tolerance: 1e-3,
+            band: 0.02,
+        },
     };
     let run_with = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let packings = search.packings(&|| {});
             search.evaluate(30.0 * si_per_unit("kOe"), &packings, &|| {})
@@ -183,15 +249,17 @@ fn results_are_bit_identical_at_one_and_two_threads() {
     let (one, two) = (run_with(1), run_with(2));
     for (a, b) in one.iter().zip(&two) {
         assert_eq!(a.outcome.series, b.outcome.series);
-        assert_eq!(a.outcome.alignment_time_s.map(f64::to_bits), b.outcome.alignment_time_s.map(f64::to_bits));
+        assert_eq!(
+            a.outcome.alignment_time_s.map(f64::to_bits),
+            b.outcome.alignment_time_s.map(f64::to_bits)
+        );
     }
 }
 
 #[test]
-fn master_curve_reproduces_a_single_free_particle_average() {
-    // Cross-check of two independent paths: the ensemble master curve at reduced time s versus
-    // a brute-force average over the DEM torque law of many free particles is covered by the
-    // unit tests; here: A(0) = 1/2 and A(∞) = 1 for fields above and below H_K.
+fn ensemble_starts_isotropic_and_aligns_fully_below_and_above_h_k() {
+    // Isotropic start: A(0) = ⟨cos θ⟩ = 1/2; every axis but the measure-zero θ = 90° ends on
+    // the field, below H_K (finite torque at 90°) and above it (unstable equilibrium there).
     for h in [0.4, 2.0] {
         let curve = MasterCurve::new(h);
         assert!((curve.alignment(0.0) - 0.5).abs() < 1e-9);

@@ -38,7 +38,12 @@ pub struct PhysicsArgs {
     #[arg(long, value_enum, default_value = "exposed-layer")]
     pressure_mode: PressureMode,
     /// Number of particles N.
-    #[arg(long, allow_hyphen_values = true, default_value = "1000", value_name = "N")]
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        default_value = "1000",
+        value_name = "N"
+    )]
     particles: String,
     /// Mean particle diameter D_av (nm, um, mm, m; bare number: um).
     #[arg(long, allow_hyphen_values = true, default_value = "1um")]
@@ -86,7 +91,8 @@ impl PhysicsArgs {
         p.target = number("target", self.target)?;
         p.max_time = quantity("max-time", &self.max_time, Dimension::Time, "s")?;
         p.numerics.rotation_step = number("rotation-step", self.rotation_step)?;
-        p.numerics.friction_regularization = number("friction-regularization", self.friction_regularization)?;
+        p.numerics.friction_regularization =
+            number("friction-regularization", self.friction_regularization)?;
         p.validate()?;
         Ok(p)
     }
@@ -144,10 +150,18 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
     let out = args.physics.prepare_out()?;
     let seed = args.physics.seed;
     let outcome = run_once(&params, args.physics.model, seed);
-    let record = RunRecord { field, replicate: 0, seed, outcome };
+    let record = RunRecord {
+        field,
+        replicate: 0,
+        seed,
+        outcome,
+    };
     if let Some(dir) = out {
         let records = std::slice::from_ref(&record);
-        table::write_parquet(&dir.join("runs.parquet"), &report::runs_table(&params, args.physics.model, records))?;
+        table::write_parquet(
+            &dir.join("runs.parquet"),
+            &report::runs_table(&params, args.physics.model, records),
+        )?;
         table::write_parquet(&dir.join("series.parquet"), &report::series_table(records))?;
     }
     let o = &record.outcome;
@@ -164,7 +178,12 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
     );
     match o.alignment_time_s {
         Some(t) => println!("alignment time τ_{} = {t:.3} s", params.target),
-        None => println!("target A = {} not reached ({}); final A = {:.4}", params.target, o.status.label(), o.final_alignment),
+        None => println!(
+            "target A = {} not reached ({}); final A = {:.4}",
+            params.target,
+            o.status.label(),
+            o.final_alignment
+        ),
     }
     if let crate::models::align::Status::Failed(reason) = &o.status {
         println!("run failed: {reason}");
@@ -172,14 +191,33 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
     if let Some(t) = o.alignment_time_90_s {
         println!("τ_0.90 = {t:.3} s");
     }
-    println!("final alignment A = {:.4} after {} steps ({:.2} s wall)", o.final_alignment, o.steps, o.wall_time_s);
+    println!(
+        "final alignment A = {:.4} after {} steps ({:.2} s wall)",
+        o.final_alignment, o.steps, o.wall_time_s
+    );
+    if let Some(f) = o.sticking_fraction {
+        println!("friction-loaded contacts sticking at the end: {:.0} %", 100.0 * f);
+        if f > 0.5 {
+            println!("note: creep regime: τ at high targets depends on --friction-regularization; compare τ_0.90");
+        }
+    }
     Ok(())
 }
 
 /// The field optimization.
 pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
-    let lower = quantity("field-min", &args.field_min, Dimension::MagneticField, "kOe")?;
-    let upper = quantity("field-max", &args.field_max, Dimension::MagneticField, "kOe")?;
+    let lower = quantity(
+        "field-min",
+        &args.field_min,
+        Dimension::MagneticField,
+        "kOe",
+    )?;
+    let upper = quantity(
+        "field-max",
+        &args.field_max,
+        Dimension::MagneticField,
+        "kOe",
+    )?;
     if !(lower > 0.0 && lower < upper) {
         return Err(Error::input(format!(
             "--field-min {} and --field-max {}: need 0 < field-min < field-max",
@@ -188,7 +226,9 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
     }
     let band = number("band", args.band)?;
     if !(band > 0.0 && band < 1.0) {
-        return Err(Error::input(format!("--band: {band} is not allowed (need 0 < band < 1)")));
+        return Err(Error::input(format!(
+            "--band: {band} is not allowed (need 0 < band < 1)"
+        )));
     }
     let params = args.physics.params(db, lower)?;
     let scan_points = count("scan-points", &args.scan_points)?.max(3);
@@ -210,7 +250,10 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
         if threads == 0 {
             return Err(Error::input("--threads: 0 is not allowed (need ≥ 1)"));
         }
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build_global().ok();
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_global()
+            .ok();
     }
     let out = args.physics.prepare_out()?;
     let bar = progress_bar(search.expected_work());
@@ -226,7 +269,9 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
     if let Some(e) = write_error {
         return Err(e);
     }
-    let seeds: Vec<u64> = (0..search.replicates).map(|r| search.replicate_seed(r)).collect();
+    let seeds: Vec<u64> = (0..search.replicates)
+        .map(|r| search.replicate_seed(r))
+        .collect();
     let summary = report::optimum_json(&params, search.model, &result, &seeds);
     if let Some(dir) = out {
         atomic::write_json_atomic(&dir.join("optimum.json"), &summary)?;
@@ -241,16 +286,26 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
     Ok(())
 }
 
-fn write_runs(dir: &Path, params: &AlignParams, model: ModelKind, runs: &[RunRecord]) -> Result<()> {
-    table::write_parquet(&dir.join("evaluations.parquet"), &report::runs_table(params, model, runs))?;
+fn write_runs(
+    dir: &Path,
+    params: &AlignParams,
+    model: ModelKind,
+    runs: &[RunRecord],
+) -> Result<()> {
+    table::write_parquet(
+        &dir.join("evaluations.parquet"),
+        &report::runs_table(params, model, runs),
+    )?;
     table::write_parquet(&dir.join("series.parquet"), &report::series_table(runs))
 }
 
 fn progress_bar(total: u64) -> ProgressBar {
     let bar = ProgressBar::new(total);
     bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/~{len} runs (ETA {eta})")
-            .expect("static template"),
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/~{len} runs (ETA {eta})",
+        )
+        .expect("static template"),
     );
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     bar
@@ -266,10 +321,17 @@ fn print_summary(params: &AlignParams, search: &FieldSearch, result: &FieldSearc
         params.friction,
         to_unit(params.pressure, "atm"),
         params.particles,
-        if search.model == ModelKind::Dem { search.replicates } else { 1 },
+        if search.model == ModelKind::Dem {
+            search.replicates
+        } else {
+            1
+        },
         koe(params.material.anisotropy_field())
     );
-    println!("   field (kOe)   τ_{} mean (s)   std (s)   reached", params.target);
+    println!(
+        "   field (kOe)   τ_{} mean (s)   std (s)   reached",
+        params.target
+    );
     for p in &o.points {
         println!(
             "   {:10.2}   {:14.3}   {:8.3}   {}/{}",
@@ -280,8 +342,17 @@ fn print_summary(params: &AlignParams, search: &FieldSearch, result: &FieldSearc
             p.values.len()
         );
     }
-    let unc = if o.uncertainty.is_finite() { format!(" ± {:.1}", koe(o.uncertainty)) } else { String::new() };
-    println!("optimal field: {:.1}{unc} kOe (τ_{} = {:.3} s)", koe(o.x), params.target, o.value);
+    let unc = if o.uncertainty.is_finite() {
+        format!(" ± {:.1}", koe(o.uncertainty))
+    } else {
+        String::new()
+    };
+    println!(
+        "optimal field: {:.1}{unc} kOe (τ_{} = {:.3} s)",
+        koe(o.x),
+        params.target,
+        o.value
+    );
     println!(
         "fields within {} % of the fastest: {:.1}–{:.1} kOe (the lowest is the cheapest nearly-optimal choice)",
         search.settings.band * 100.0,

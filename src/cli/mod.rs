@@ -42,12 +42,21 @@ pub fn main() -> i32 {
         Ok(cli) => cli,
         Err(e) => {
             use clap::error::ErrorKind;
-            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
                 let _ = e.print();
                 return 0;
             }
             let text = e.to_string();
-            let line = text.lines().next().unwrap_or("invalid arguments").trim_start_matches("error: ");
+            let line = text
+                .lines()
+                .next()
+                .unwrap_or("invalid arguments")
+                .trim_start_matches("error: ");
             eprintln!("magopt: {line}");
             return 2;
         }
@@ -87,7 +96,9 @@ fn number(option: &str, value: f64) -> Result<f64> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(Error::input(format!("--{option}: {value} is not a finite number")))
+        Err(Error::input(format!(
+            "--{option}: {value} is not a finite number"
+        )))
     }
 }
 
@@ -95,7 +106,11 @@ fn number(option: &str, value: f64) -> Result<f64> {
 fn count(option: &str, text: &str) -> Result<usize> {
     match text.trim().parse::<i64>() {
         Ok(n) if n >= 1 => Ok(n as usize),
-        Ok(n) => Err(Error::input(format!("--{option}: {n} is not allowed (need a whole number ≥ 1)"))),
-        Err(_) => Err(Error::input(format!("--{option}: '{text}' is not a whole number (need ≥ 1)"))),
+        Ok(n) => Err(Error::input(format!(
+            "--{option}: {n} is not allowed (need a whole number ≥ 1)"
+        ))),
+        Err(_) => Err(Error::input(format!(
+            "--{option}: '{text}' is not a whole number (need ≥ 1)"
+        ))),
     }
 }

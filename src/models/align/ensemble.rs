@@ -277,7 +277,10 @@ mod tests {
             for s in [0.3, 1.5, 4.0] {
                 let a = curve.alignment(s);
                 let reference = brute_force_alignment(h, s);
-                assert!((a - reference).abs() < 2e-5, "h={h} s={s}: {a} vs {reference}");
+                assert!(
+                    (a - reference).abs() < 2e-5,
+                    "h={h} s={s}: {a} vs {reference}"
+                );
             }
         }
     }

@@ -76,7 +76,12 @@ impl FieldSearch {
     }
 
     /// Runs every replicate at one field (in parallel).
-    pub fn evaluate(&self, field: f64, packings: &[Result<Packing, String>], tick: &(impl Fn() + Sync)) -> Vec<RunRecord> {
+    pub fn evaluate(
+        &self,
+        field: f64,
+        packings: &[Result<Packing, String>],
+        tick: &(impl Fn() + Sync),
+    ) -> Vec<RunRecord> {
         let mut params = self.base.clone();
         params.field = field;
         (0..self.replicate_count())
@@ -90,14 +95,23 @@ impl FieldSearch {
                     },
                 };
                 tick();
-                RunRecord { field, replicate: r, seed: self.replicate_seed(r), outcome }
+                RunRecord {
+                    field,
+                    replicate: r,
+                    seed: self.replicate_seed(r),
+                    outcome,
+                }
             })
             .collect()
     }
 
     /// Runs the whole search. `tick` is called after every packing and run; `on_runs` after
     /// every field with all runs so far (to write results as they finish).
-    pub fn run(&self, tick: &(impl Fn() + Sync), mut on_runs: impl FnMut(&[RunRecord])) -> FieldSearchResult {
+    pub fn run(
+        &self,
+        tick: &(impl Fn() + Sync),
+        mut on_runs: impl FnMut(&[RunRecord]),
+    ) -> FieldSearchResult {
         let packings = self.packings(tick);
         let mut runs: Vec<RunRecord> = Vec::new();
         let optimum = minimize_log_scale(&self.settings, self.base.max_time, |field| {
@@ -113,7 +127,11 @@ impl FieldSearch {
     /// Upper bound on the number of runs (for a progress bar): packings plus runs per field
     /// times scan points and Brent iterations (Brent stops early more often than not).
     pub fn expected_work(&self) -> u64 {
-        let packings = if self.model == ModelKind::Dem { self.replicates } else { 0 };
+        let packings = if self.model == ModelKind::Dem {
+            self.replicates
+        } else {
+            0
+        };
         let fields = self.settings.scan_points as u64 + self.settings.brent_iterations;
         packings as u64 + fields * self.replicate_count() as u64
     }
@@ -135,6 +153,7 @@ fn failed(reason: &str) -> AlignOutcome {
         nominal_force_n: None,
         solver_sweeps: 0,
         unconverged_solves: 0,
+        sticking_fraction: None,
         wall_time_s: 0.0,
     }
 }

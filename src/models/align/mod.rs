@@ -8,8 +8,8 @@
 pub mod dem;
 pub mod ensemble;
 pub mod field_search;
-pub mod report;
 pub mod params;
+pub mod report;
 pub mod stoner_wohlfarth;
 
 use serde::Serialize;
@@ -80,6 +80,10 @@ pub struct AlignOutcome {
     pub solver_sweeps: usize,
     /// Velocity solves that hit the sweep cap.
     pub unconverged_solves: usize,
+    /// At the end of the run, the fraction of friction-loaded contacts slipping slower than
+    /// 3 v_ε. Near 1 the run is in the creep regime: τ at high targets then depends on the
+    /// friction regularization (compare τ_0.90, which depends less). DEM with friction only.
+    pub sticking_fraction: Option<f64>,
     /// Wall-clock time of the run, s.
     pub wall_time_s: f64,
 }
@@ -104,7 +108,11 @@ pub fn run_ensemble(params: &AlignParams) -> AlignOutcome {
         })
         .collect();
     AlignOutcome {
-        status: if tau.is_some() { Status::Reached } else { Status::NotReached },
+        status: if tau.is_some() {
+            Status::Reached
+        } else {
+            Status::NotReached
+        },
         alignment_time_s: tau,
         alignment_time_90_s: tau90,
         final_alignment: series.last().unwrap().1,
@@ -118,6 +126,7 @@ pub fn run_ensemble(params: &AlignParams) -> AlignOutcome {
         nominal_force_n: None,
         solver_sweeps: 0,
         unconverged_solves: 0,
+        sticking_fraction: None,
         wall_time_s: started.elapsed().as_secs_f64(),
     }
 }

@@ -30,6 +30,9 @@ pub struct Numerics {
     pub solver_tolerance: f64,
     /// Cap on Gauss–Seidel sweeps per velocity solve (reported when hit). 200.
     pub max_sweeps: usize,
+    /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
+    /// cells; the result is the same at any thread count). 4000.
+    pub parallel_from: usize,
     /// Settling force per particle (stage 3), in units of E R_av². A numerical device: real
     /// gravity is ~1e-12 of the contact scale and would never settle the bed. 1e-3.
     pub settling_force: f64,
@@ -48,6 +51,7 @@ impl Default for Numerics {
             friction_regularization: 1e-2,
             solver_tolerance: 1e-4,
             max_sweeps: 200,
+            parallel_from: 4000,
             settling_force: 1e-3,
             rest_speed: 1e-2,
             overlap_tolerance: 1e-5,
@@ -146,9 +150,12 @@ impl AlignParams {
         check(n.rotation_step, "rotation step", "in (0, 0.5] rad", |v| {
             v > 0.0 && v <= 0.5
         })?;
-        check(n.friction_regularization, "friction regularization", "in (0, 1]", |v| {
-            v > 0.0 && v <= 1.0
-        })?;
+        check(
+            n.friction_regularization,
+            "friction regularization",
+            "in (0, 1]",
+            |v| v > 0.0 && v <= 1.0,
+        )?;
         Ok(())
     }
 
@@ -171,7 +178,11 @@ impl AlignParams {
 
     /// The reduced unit system of this run.
     pub fn scales(&self) -> Scales {
-        Scales::new(self.mean_diameter, self.material.youngs_modulus, self.damping)
+        Scales::new(
+            self.mean_diameter,
+            self.material.youngs_modulus,
+            self.damping,
+        )
     }
 }
 
@@ -179,7 +190,9 @@ fn check(value: f64, name: &str, allowed: &str, ok: impl Fn(f64) -> bool) -> Res
     if value.is_finite() && ok(value) {
         Ok(())
     } else {
-        Err(Error::input(format!("{name}: {value} is not allowed ({allowed})")))
+        Err(Error::input(format!(
+            "{name}: {value} is not allowed ({allowed})"
+        )))
     }
 }
 

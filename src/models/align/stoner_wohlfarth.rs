@@ -156,7 +156,11 @@ mod tests {
         for &theta in &dense_angles() {
             for &h in &dense_fields() {
                 let eq = solve(theta, h);
-                assert!(eq.psi >= 0.0 && eq.psi <= theta + 1e-15, "ψ={} θ={theta}", eq.psi);
+                assert!(
+                    eq.psi >= 0.0 && eq.psi <= theta + 1e-15,
+                    "ψ={} θ={theta}",
+                    eq.psi
+                );
                 worst = worst.max(scaled_residual(theta, eq.psi, h));
             }
         }
@@ -221,7 +225,10 @@ mod tests {
                 }
             }
             let h_max = (0.5 * (a + b)).exp();
-            assert!((h_max / h_star - 1.0).abs() < 1e-5, "θ={deg}° h_max={h_max} h*={h_star}");
+            assert!(
+                (h_max / h_star - 1.0).abs() < 1e-5,
+                "θ={deg}° h_max={h_max} h*={h_star}"
+            );
             // at the peak the torque factor is 1 (ψ = 45°)
             assert!((torque(h_star.ln()) - 1.0).abs() < 1e-12);
         }

@@ -214,7 +214,8 @@ mod tests {
         assert!((contact.normal_force_at(delta) / expected - 1.0).abs() < 1e-14);
         // stiffness is the derivative
         let h = 1e-7;
-        let numeric = (contact.normal_force_at(delta + h) - contact.normal_force_at(delta - h)) / (2.0 * h);
+        let numeric =
+            (contact.normal_force_at(delta + h) - contact.normal_force_at(delta - h)) / (2.0 * h);
         assert!((contact.stiffness_at(delta) / numeric - 1.0).abs() < 1e-6);
         assert_eq!(contact.normal_force_at(-0.01), 0.0);
     }

@@ -20,7 +20,7 @@ use super::{AlignOutcome, Status};
 use crate::neighbor::NeighborList;
 use contacts::{ContactLaw, ContactSet};
 pub use packing::Packing;
-use velocity::{Motion, SolveStats, SolverControl, Stage};
+use velocity::{Motion, Schedule, SolveStats, SolverControl, Stage};
 
 /// Neighbour-list skin during alignment, R_av (particles hardly move).
 const SKIN: f64 = 0.2;
@@ -46,6 +46,7 @@ struct Run<'a> {
     orientation: Vec<UnitQuaternion<f64>>,
     motion: Vec<Motion>,
     list: NeighborList,
+    schedule: Schedule,
     contacts: ContactSet,
     law: ContactLaw,
     force: Vec<Vector3<f64>>,
@@ -59,6 +60,8 @@ struct Run<'a> {
     applied_force: f64,
     solves: SolveStats,
     unconverged: usize,
+    /// Sticking fraction of the latest velocity solve.
+    sticking: f64,
 }
 
 /// Fastest possible angular speed (largest particle, torque K V), in 1/t_char, and the
@@ -88,6 +91,7 @@ impl<'a> Run<'a> {
             orientation: packing.orientation.clone(),
             motion: vec![Motion::default(); n],
             list: NeighborList::new(SKIN),
+            schedule: Schedule::default(),
             contacts: ContactSet::default(),
             law: ContactLaw {
                 effective_modulus: 1.0 / (2.0 * (1.0 - nu * nu)),
@@ -112,6 +116,7 @@ impl<'a> Run<'a> {
             applied_force: 0.0,
             solves: SolveStats::default(),
             unconverged: 0,
+            sticking: f64::NAN,
         }
     }
 
@@ -128,7 +133,10 @@ impl<'a> Run<'a> {
                 break;
             }
             steps += 1;
-            series.push((steps as f64 * self.dt * time_unit, alignment_degree(&self.orientation)));
+            series.push((
+                steps as f64 * self.dt * time_unit,
+                alignment_degree(&self.orientation),
+            ));
         }
         self.outcome(series, steps, failure)
     }
@@ -144,7 +152,13 @@ impl<'a> Run<'a> {
     }
 
     /// Sets the state to (x0, q0) advanced by dt with the mean of two velocity fields.
-    fn advance(&mut self, x0: &[Vector3<f64>], q0: &[UnitQuaternion<f64>], a: &[Motion], b: &[Motion]) {
+    fn advance(
+        &mut self,
+        x0: &[Vector3<f64>],
+        q0: &[UnitQuaternion<f64>],
+        a: &[Motion],
+        b: &[Motion],
+    ) {
         let dt = self.dt;
         for i in 0..x0.len() {
             let v = 0.5 * (a[i].v + b[i].v);
@@ -159,11 +173,25 @@ impl<'a> Run<'a> {
     fn stage_velocities(&mut self) -> Result<Vec<Motion>, String> {
         if self.list.update(&self.position, &self.packing.radius) {
             self.update_external_forces();
+            let r_max = self.packing.radius.iter().cloned().fold(0.0, f64::max);
+            self.schedule = Schedule::new(
+                &self.position,
+                2.0 * r_max + SKIN,
+                self.params.numerics.parallel_from,
+            );
         }
-        self.contacts.rebuild(&self.position, &self.packing.radius, &self.list, &self.packing.container, &self.law);
+        self.contacts.rebuild(
+            &self.position,
+            &self.packing.radius,
+            &self.list,
+            &self.packing.container,
+            &self.law,
+        );
         let overlap = self.contacts.max_overlap();
         if !overlap.is_finite() || overlap > RUNAWAY_OVERLAP {
-            return Err(format!("runaway overlap {overlap:.3} R_av (contact mechanics broke down)"));
+            return Err(format!(
+                "runaway overlap {overlap:.3} R_av (contact mechanics broke down)"
+            ));
         }
         for i in 0..self.torque.len() {
             self.torque[i] = magnetic_torque(&self.orientation[i], self.torque_scale[i], self.h);
@@ -176,10 +204,15 @@ impl<'a> Run<'a> {
             dt: self.dt,
             slip_scale: self.slip_scale,
         };
-        let stats = velocity::solve(&stage, &mut self.motion, self.control);
+        let stats = velocity::solve(&stage, &self.schedule, &mut self.motion, self.control);
         self.solves.sweeps += stats.sweeps;
         self.unconverged += usize::from(!stats.converged);
-        if self.motion.iter().any(|m| !(m.v.norm() + m.w.norm()).is_finite()) {
+        self.sticking = velocity::sticking_fraction(&stage, &self.motion);
+        if self
+            .motion
+            .iter()
+            .any(|m| !(m.v.norm() + m.w.norm()).is_finite())
+        {
             return Err("non-finite velocity (numerical blow-up)".into());
         }
         Ok(self.motion.clone())
@@ -198,13 +231,26 @@ impl<'a> Run<'a> {
         self.applied_force = 0.0;
         for (i, f) in self.force.iter_mut().enumerate() {
             let r = self.packing.radius[i];
-            let load = if loaded[i] { std::f64::consts::PI * r * r * p_red } else { 0.0 };
+            let load = if loaded[i] {
+                std::f64::consts::PI * r * r * p_red
+            } else {
+                0.0
+            };
             self.applied_force += load;
-            *f = Vector3::new(0.0, 0.0, -load - g_red * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3));
+            *f = Vector3::new(
+                0.0,
+                0.0,
+                -load - g_red * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
+            );
         }
     }
 
-    fn outcome(&self, series: Vec<(f64, f64)>, steps: usize, failure: Option<String>) -> AlignOutcome {
+    fn outcome(
+        &self,
+        series: Vec<(f64, f64)>,
+        steps: usize,
+        failure: Option<String>,
+    ) -> AlignOutcome {
         let scales = self.params.scales();
         let target = self.params.target;
         let tau = crossing_time(&series, target);
@@ -215,8 +261,16 @@ impl<'a> Run<'a> {
             None => Status::NotReached,
         };
         let radius = &self.packing.radius;
-        let top = self.position.iter().zip(radius).map(|(p, r)| p.z + r).fold(0.0, f64::max);
-        let solid: f64 = radius.iter().map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3)).sum();
+        let top = self
+            .position
+            .iter()
+            .zip(radius)
+            .map(|(p, r)| p.z + r)
+            .fold(0.0, f64::max);
+        let solid: f64 = radius
+            .iter()
+            .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+            .sum();
         let c = &self.packing.container;
         AlignOutcome {
             status,
@@ -233,6 +287,7 @@ impl<'a> Run<'a> {
             nominal_force_n: Some(self.params.pressure * c.lx * c.ly * scales.length.powi(2)),
             solver_sweeps: self.solves.sweeps,
             unconverged_solves: self.unconverged,
+            sticking_fraction: Some(self.sticking).filter(|f| f.is_finite()),
             wall_time_s: 0.0,
         }
     }
@@ -310,6 +365,9 @@ fn exposed_particles(position: &[Vector3<f64>], radius: &[f64]) -> Vec<bool> {
 
 /// The source's rule: centres above 0.9 of the highest centre.
 fn source_layer(position: &[Vector3<f64>]) -> Vec<bool> {
-    let z_max = position.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+    let z_max = position
+        .iter()
+        .map(|p| p.z)
+        .fold(f64::NEG_INFINITY, f64::max);
     position.iter().map(|p| p.z > 0.9 * z_max).collect()
 }

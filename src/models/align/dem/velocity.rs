@@ -19,6 +19,8 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
+use rayon::prelude::*;
+
 use super::contacts::{Contact, ContactSet, WALL};
 
 /// Translational and angular velocity of one particle (reduced units).
@@ -64,18 +66,35 @@ pub struct SolveStats {
     pub converged: bool,
 }
 
-/// Solves the stage problem by block Gauss–Seidel, starting from (and overwriting) `motion`.
-pub fn solve(stage: &Stage, motion: &mut [Motion], control: SolverControl) -> SolveStats {
+/// Solves the stage problem by block Gauss–Seidel in the order of `schedule`, starting from
+/// (and overwriting) `motion`.
+pub fn solve(
+    stage: &Stage,
+    schedule: &Schedule,
+    motion: &mut [Motion],
+    control: SolverControl,
+) -> SolveStats {
     let mut stats = SolveStats::default();
+    let shared = SharedMotion(motion.as_mut_ptr(), motion.len());
     while stats.sweeps < control.max_sweeps {
         stats.sweeps += 1;
         let mut largest_change: f64 = 0.0;
-        for i in 0..motion.len() {
-            let old = motion[i];
-            let new = solve_particle(stage, motion, i);
-            largest_change = largest_change
-                .max((new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm());
-            motion[i] = new;
+        for colour in &schedule.colours {
+            let sweep_cell = |cell: &Vec<u32>| {
+                let mut change: f64 = 0.0;
+                for &i in cell {
+                    // SAFETY: see `Schedule`: tasks of one colour write disjoint particles and
+                    // never read a particle another task of the same colour writes.
+                    unsafe { change = change.max(shared.relax(stage, i as usize)) };
+                }
+                change
+            };
+            let change = if schedule.parallel {
+                colour.par_iter().map(sweep_cell).reduce(|| 0.0, f64::max)
+            } else {
+                colour.iter().map(sweep_cell).fold(0.0, f64::max)
+            };
+            largest_change = largest_change.max(change);
         }
         if largest_change <= control.tolerance {
             stats.converged = true;
@@ -83,6 +102,88 @@ pub fn solve(stage: &Stage, motion: &mut [Motion], control: SolverControl) -> So
         }
     }
     stats
+}
+
+/// Fraction of friction-loaded contacts (F_n > 0, μ > 0) whose slip speed is below 3 v_ε: there
+/// the regularized law acts as a viscous creep law and the rotation rate depends on v_ε. Near 1
+/// the run is in the creep regime (spec align.md, "Observables"). NaN without loaded contacts.
+pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
+    let (mut loaded, mut sticking) = (0usize, 0usize);
+    for (i, m) in motion.iter().enumerate() {
+        for c in stage.contacts.of(i) {
+            if c.friction > 0.0 && c.overlap > 0.0 {
+                let partner = if c.partner == WALL {
+                    Vector3::zeros()
+                } else {
+                    let p = motion[c.partner as usize];
+                    p.v - c.partner_radius * p.w.cross(&c.normal)
+                };
+                let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
+                let slip = rel - rel.dot(&c.normal) * c.normal;
+                loaded += 1;
+                sticking += usize::from(slip.norm() < 3.0 * stage.slip_scale);
+            }
+        }
+    }
+    sticking as f64 / loaded as f64
+}
+
+/// The Gauss–Seidel order: particles grouped by cubic cells of side ≥ the neighbour cut-off
+/// (2 r_max + skin, as in the neighbour list), cells grouped in 8 colours by the parity of their
+/// integer coordinates. Two cells of one colour are never adjacent, so the particles of one
+/// cell neither touch nor list the particles of another cell of its colour: a colour's cells can
+/// be relaxed concurrently, and the result does not depend on the number of threads.
+#[derive(Debug, Clone, Default)]
+pub struct Schedule {
+    colours: [Vec<Vec<u32>>; 8],
+    parallel: bool,
+}
+
+impl Schedule {
+    /// Builds the order for the positions at which the neighbour list was built; cells of a
+    /// colour are relaxed concurrently from `parallel_from` particles on (same result either way).
+    pub fn new(positions: &[Vector3<f64>], cell: f64, parallel_from: usize) -> Self {
+        let mut cells: std::collections::BTreeMap<[i64; 3], Vec<u32>> = Default::default();
+        for (i, p) in positions.iter().enumerate() {
+            let key = [0, 1, 2].map(|a| (p[a] / cell).floor() as i64);
+            cells.entry(key).or_default().push(i as u32);
+        }
+        let mut colours: [Vec<Vec<u32>>; 8] = Default::default();
+        for (key, members) in cells {
+            let colour = key
+                .iter()
+                .enumerate()
+                .map(|(a, k)| (k.rem_euclid(2) as usize) << a)
+                .sum::<usize>();
+            colours[colour].push(members);
+        }
+        Self {
+            colours,
+            parallel: positions.len() >= parallel_from,
+        }
+    }
+}
+
+/// Raw access to the velocity array for the coloured Gauss–Seidel sweep.
+#[derive(Clone, Copy)]
+struct SharedMotion(*mut Motion, usize);
+
+// SAFETY: only used under the colouring invariant of `Schedule` (no data races).
+unsafe impl Send for SharedMotion {}
+unsafe impl Sync for SharedMotion {}
+
+impl SharedMotion {
+    /// Relaxes particle i and returns the size of its change.
+    ///
+    /// # Safety
+    /// No other thread may write particle i or any particle in its contact list meanwhile.
+    unsafe fn relax(self, stage: &Stage, i: usize) -> f64 {
+        let motion = std::slice::from_raw_parts(self.0, self.1);
+        let old = motion[i];
+        let new = solve_particle(stage, motion, i);
+        *self.0.add(i) = new;
+        (new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm()
+    }
 }
 
 /// The local problem of particle i with every other particle's motion held fixed.
@@ -109,7 +210,8 @@ impl Local<'_> {
     /// Φ restricted to this particle, up to a constant.
     fn value(&self, u: &Motion) -> f64 {
         let dt = self.stage.dt;
-        let mut phi = 0.5 * u.v.norm_squared() + 0.5 * self.radius * self.radius * u.w.norm_squared()
+        let mut phi = 0.5 * u.v.norm_squared()
+            + 0.5 * self.radius * self.radius * u.w.norm_squared()
             - self.force.dot(&u.v)
             - self.torque.dot(&u.w);
         for (k, c) in self.contacts.iter().enumerate() {
@@ -160,10 +262,14 @@ impl Local<'_> {
                 let spin = -r * e.cross_matrix();
                 let qp = q * projector;
                 let qs = q * spin;
-                hess.fixed_view_mut::<3, 3>(0, 0).add_assign(&(projector * qp));
-                hess.fixed_view_mut::<3, 3>(0, 3).add_assign(&(projector * qs));
-                hess.fixed_view_mut::<3, 3>(3, 0).add_assign(&(spin.transpose() * qp));
-                hess.fixed_view_mut::<3, 3>(3, 3).add_assign(&(spin.transpose() * qs));
+                hess.fixed_view_mut::<3, 3>(0, 0)
+                    .add_assign(&(projector * qp));
+                hess.fixed_view_mut::<3, 3>(0, 3)
+                    .add_assign(&(projector * qs));
+                hess.fixed_view_mut::<3, 3>(3, 0)
+                    .add_assign(&(spin.transpose() * qp));
+                hess.fixed_view_mut::<3, 3>(3, 3)
+                    .add_assign(&(spin.transpose() * qs));
             }
         }
         let mut grad = Vector6::zeros();
@@ -238,7 +344,8 @@ fn newton(local: &Local, start: Motion) -> Motion {
             t *= 0.5;
         }
         u = trial;
-        let moved = t * (step.fixed_rows::<3>(0).norm() + local.radius * step.fixed_rows::<3>(3).norm());
+        let moved =
+            t * (step.fixed_rows::<3>(0).norm() + local.radius * step.fixed_rows::<3>(3).norm());
         if moved <= 1e-6 * scale {
             break;
         }
@@ -258,10 +365,19 @@ mod tests {
     fn friction_opposes_spin_and_pair_forces_balance() {
         let positions = vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(6.99, 5.0, 5.0)];
         let radius = vec![1.0, 1.0];
-        let law = ContactLaw { effective_modulus: 0.55, friction: 0.5, wall_friction: 0.0, skin: 0.2 };
+        let law = ContactLaw {
+            effective_modulus: 0.55,
+            friction: 0.5,
+            wall_friction: 0.0,
+            skin: 0.2,
+        };
         let mut list = NeighborList::new(0.3);
         list.build(&positions, &radius);
-        let container = Container { lx: 20.0, ly: 20.0, top: None };
+        let container = Container {
+            lx: 20.0,
+            ly: 20.0,
+            top: None,
+        };
         let mut contacts = ContactSet::default();
         contacts.rebuild(&positions, &radius, &list, &container, &law);
         let fn0 = contacts.of(0)[0].normal_force_at(0.01);
@@ -269,17 +385,77 @@ mod tests {
         let torque = vec![Vector3::new(0.0, 0.0, 1e-3), Vector3::new(0.0, 0.0, 1e-3)];
         // Equal and opposite pushes hold the overlap steady.
         let force = vec![Vector3::new(fn0, 0.0, 0.0), Vector3::new(-fn0, 0.0, 0.0)];
-        let stage = Stage { contacts: &contacts, radius: &radius, force: &force, torque: &torque, dt: 1.0, slip_scale: 1e-9 };
+        let stage = Stage {
+            contacts: &contacts,
+            radius: &radius,
+            force: &force,
+            torque: &torque,
+            dt: 1.0,
+            slip_scale: 1e-9,
+        };
         let mut motion = vec![Motion::default(); 2];
-        let stats = solve(&stage, &mut motion, SolverControl { tolerance: 1e-14, max_sweeps: 500 });
+        let schedule = Schedule::new(&positions, 3.0, usize::MAX);
+        let stats = solve(
+            &stage,
+            &schedule,
+            &mut motion,
+            SolverControl {
+                tolerance: 1e-14,
+                max_sweeps: 500,
+            },
+        );
         assert!(stats.converged);
         // μF_n = 0.5·fn0 ≈ 5e-4 < torque: sliding; friction torque R μ F_n each opposes the spin.
         let bound = 0.5 * fn0;
         for m in &motion {
             let expected = 1e-3 - bound;
-            assert!((m.w.z - expected).abs() < 1e-8 * 1e-3, "{} vs {expected}", m.w.z);
+            assert!(
+                (m.w.z - expected).abs() < 1e-8 * 1e-3,
+                "{} vs {expected}",
+                m.w.z
+            );
         }
         // Equal and opposite tangential forces: centres drift in ±y by equal amounts.
         assert!((motion[0].v + motion[1].v).norm() < 1e-12);
+    }
+
+    #[test]
+    fn cells_of_one_colour_share_no_neighbours() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let positions: Vec<Vector3<f64>> = (0..2000)
+            .map(|_| {
+                Vector3::new(
+                    rng.random::<f64>() * 30.0,
+                    rng.random::<f64>() * 30.0,
+                    rng.random::<f64>() * 15.0,
+                )
+            })
+            .collect();
+        let radius: Vec<f64> = (0..2000).map(|_| 0.7 + 0.6 * rng.random::<f64>()).collect();
+        let skin = 0.2;
+        let mut list = NeighborList::new(skin);
+        list.build(&positions, &radius);
+        let r_max = radius.iter().cloned().fold(0.0, f64::max);
+        let schedule = Schedule::new(&positions, 2.0 * r_max + skin, 0);
+        let mut seen = vec![false; positions.len()];
+        for colour in &schedule.colours {
+            let mut cell_of = std::collections::HashMap::new();
+            for (c, cell) in colour.iter().enumerate() {
+                for &i in cell {
+                    cell_of.insert(i, c);
+                    seen[i as usize] = true;
+                }
+            }
+            for (&i, &c) in &cell_of {
+                for j in list.of(i as usize) {
+                    assert!(
+                        cell_of.get(j).is_none_or(|&d| d == c),
+                        "{i} and {j} share a colour across cells"
+                    );
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s), "every particle is scheduled once");
     }
 }
