@@ -12,6 +12,7 @@ pub mod numerics;
 pub mod optimize;
 pub mod output;
 pub mod rng;
+pub mod study;
 pub mod units;
 
 pub use error::{Error, Result};

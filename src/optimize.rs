@@ -64,6 +64,8 @@ pub struct Settings {
     pub rel_tolerance: f64,
     /// Near-optimal band: values within this fraction of the minimum mean (0.02).
     pub band: f64,
+    /// Search in ln x (true) or in x.
+    pub log: bool,
 }
 
 /// The result of a search.
@@ -95,6 +97,7 @@ struct Objective<'a, F: FnMut(f64) -> Vec<Option<f64>>> {
     evaluate: RefCell<F>,
     points: &'a RefCell<Vec<Point>>,
     penalty: f64,
+    log: bool,
 }
 
 impl<F: FnMut(f64) -> Vec<Option<f64>>> Objective<'_, F> {
@@ -113,14 +116,14 @@ impl<F: FnMut(f64) -> Vec<Option<f64>>> Objective<'_, F> {
 impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for Objective<'_, F> {
     type Param = f64;
     type Output = f64;
-    fn cost(&self, ln_x: &f64) -> Result<f64, argmin::core::Error> {
-        Ok(self.at(ln_x.exp()))
+    fn cost(&self, u: &f64) -> Result<f64, argmin::core::Error> {
+        Ok(self.at(if self.log { u.exp() } else { *u }))
     }
 }
 
-/// Minimizes `evaluate` (x ↦ per-replicate values) over [lower, upper] on a log scale.
-/// `penalty` scores points where a replicate has no value.
-pub fn minimize_log_scale(
+/// Minimizes `evaluate` (x ↦ per-replicate values) over [lower, upper], on a log scale if
+/// `settings.log`. `penalty` scores points where a replicate has no value.
+pub fn minimize_1d(
     settings: &Settings,
     penalty: f64,
     evaluate: impl FnMut(f64) -> Vec<Option<f64>>,
@@ -130,13 +133,16 @@ pub fn minimize_log_scale(
         evaluate: RefCell::new(evaluate),
         points: &points,
         penalty,
+        log: settings.log,
     };
-    let (lo, hi) = (settings.lower.ln(), settings.upper.ln());
+    let to_u = |x: f64| if settings.log { x.ln() } else { x };
+    let from_u = |u: f64| if settings.log { u.exp() } else { u };
+    let (lo, hi) = (to_u(settings.lower), to_u(settings.upper));
     let n = settings.scan_points.max(3);
     let grid: Vec<f64> = (0..n)
         .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
         .collect();
-    let scores: Vec<f64> = grid.iter().map(|u| objective.at(u.exp())).collect();
+    let scores: Vec<f64> = grid.iter().map(|&u| objective.at(from_u(u))).collect();
     let best = (0..n)
         .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
         .unwrap();
@@ -152,7 +158,7 @@ pub fn minimize_log_scale(
     }
     let mut points = points.into_inner();
     points.sort_by(|p, q| p.x.total_cmp(&q.x));
-    summarize(points, settings.band, penalty)
+    summarize(points, settings.band, penalty, settings.log)
 }
 
 impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for &Objective<'_, F> {
@@ -163,14 +169,14 @@ impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for &Objective<'_, F> {
     }
 }
 
-fn summarize(points: Vec<Point>, band: f64, penalty: f64) -> Optimum {
+fn summarize(points: Vec<Point>, band: f64, penalty: f64, log: bool) -> Optimum {
     let scores: Vec<f64> = points.iter().map(|p| score(p, penalty)).collect();
     let best = (0..points.len())
         .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
         .unwrap();
     let replicates = points[0].values.len();
     let minima: Vec<f64> = (0..replicates)
-        .filter_map(|r| replicate_minimum(&points, r))
+        .filter_map(|r| replicate_minimum(&points, r, log))
         .collect();
     let uncertainty = if minima.len() >= 2 {
         let single = Point {
@@ -186,39 +192,51 @@ fn summarize(points: Vec<Point>, band: f64, penalty: f64) -> Optimum {
         x: points[best].x,
         value: scores[best],
         uncertainty,
-        band: band_around(&points, &scores, best, level),
+        band: band_around(&points, &scores, best, level, log),
         points,
     }
 }
 
 /// Replicate r's minimum: vertex of the parabola in ln x through its best point and the two
 /// neighbours (the best point itself at an end or if the parabola is not convex).
-fn replicate_minimum(points: &[Point], r: usize) -> Option<f64> {
+fn replicate_minimum(points: &[Point], r: usize, log: bool) -> Option<f64> {
+    let (to_u, from_u) = scale(log);
     let data: Vec<(f64, f64)> = points
         .iter()
-        .filter_map(|p| p.values[r].map(|v| (p.x.ln(), v)))
+        .filter_map(|p| p.values[r].map(|v| (to_u(p.x), v)))
         .collect();
     let k = (0..data.len()).min_by(|&a, &b| data[a].1.total_cmp(&data[b].1))?;
     if k == 0 || k + 1 == data.len() {
-        return Some(data[k].0.exp());
+        return Some(from_u(data[k].0));
     }
     let ((x0, y0), (x1, y1), (x2, y2)) = (data[k - 1], data[k], data[k + 1]);
     let num = (x1 - x0).powi(2) * (y1 - y2) - (x1 - x2).powi(2) * (y1 - y0);
     let den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0);
     if den.abs() < f64::MIN_POSITIVE {
-        return Some(x1.exp());
+        return Some(from_u(x1));
     }
     let vertex = x1 - 0.5 * num / den;
-    Some(vertex.clamp(x0, x2).exp())
+    Some(from_u(vertex.clamp(x0, x2)))
+}
+
+/// The coordinate transform of a scale and its inverse.
+fn scale(log: bool) -> (fn(f64) -> f64, fn(f64) -> f64) {
+    if log {
+        (f64::ln, f64::exp)
+    } else {
+        (|x| x, |x| x)
+    }
 }
 
 /// The connected interval around `best` where the interpolated score stays ≤ level.
-fn band_around(points: &[Point], scores: &[f64], best: usize, level: f64) -> (f64, f64) {
+fn band_around(points: &[Point], scores: &[f64], best: usize, level: f64, log: bool) -> (f64, f64) {
+    let (to_u, from_u) = scale(log);
     let cross = |i: usize, j: usize| {
-        // linear interpolation in ln x between an inside point i and an outside point j
-        let (xi, xj) = (points[i].x.ln(), points[j].x.ln());
+        // linear interpolation (in ln x on a log scale) between an inside point i and an
+        // outside point j
+        let (xi, xj) = (to_u(points[i].x), to_u(points[j].x));
         let t = (level - scores[i]) / (scores[j] - scores[i]);
-        (xi + t * (xj - xi)).exp()
+        from_u(xi + t * (xj - xi))
     };
     let mut lo = best;
     while lo > 0 && scores[lo - 1] <= level {
@@ -255,8 +273,9 @@ mod tests {
             brent_iterations: 40,
             rel_tolerance: 1e-8,
             band: 0.02,
+            log: true,
         };
-        let opt = minimize_log_scale(&settings, 1e9, |x| {
+        let opt = minimize_1d(&settings, 1e9, |x| {
             let f = 1.0 + (x.ln() - 30f64.ln()).powi(2);
             vec![Some(f), Some(f)]
         });
@@ -287,8 +306,9 @@ mod tests {
             brent_iterations: 40,
             rel_tolerance: 1e-8,
             band: 0.02,
+            log: true,
         };
-        let opt = minimize_log_scale(&settings, 1e9, |x| {
+        let opt = minimize_1d(&settings, 1e9, |x| {
             let a = 1.0 + (x.ln() - 20f64.ln()).powi(2);
             let b = 1.0 + (x.ln() - 40f64.ln()).powi(2);
             vec![Some(a), Some(b)]

@@ -6,10 +6,10 @@ use magopt::materials::MaterialDb;
 use magopt::models::align::dem::contacts::{ContactLaw, ContactSet, Container, WALL};
 use magopt::models::align::dem::{self, Packing};
 use magopt::models::align::ensemble::MasterCurve;
-use magopt::models::align::field_search::{run_once, FieldSearch};
+use magopt::models::align::study::AlignModel;
 use magopt::models::align::{run_ensemble, AlignParams, ModelKind};
 use magopt::neighbor::NeighborList;
-use magopt::optimize::Settings;
+use magopt::optimize::{minimize_1d, Settings};
 use magopt::units::si_per_unit;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -96,21 +96,19 @@ fn ensemble_depends_on_the_field_only_through_h() {
     let optimum_over_hk = |name: &str| {
         let m = db.get(name).unwrap().clone();
         let hk = m.anisotropy_field();
-        let search = FieldSearch {
-            base: AlignParams::paper_defaults(m, hk),
-            model: ModelKind::Ensemble,
-            replicates: 1,
-            seed: 1,
-            settings: Settings {
-                lower: 0.25 * hk,
-                upper: 6.0 * hk,
-                scan_points: 9,
-                brent_iterations: 30,
-                rel_tolerance: 1e-6,
-                band: 0.02,
-            },
+        let settings = Settings {
+            lower: 0.25 * hk,
+            upper: 6.0 * hk,
+            scan_points: 9,
+            brent_iterations: 30,
+            rel_tolerance: 1e-6,
+            band: 0.02,
+            log: true,
         };
-        search.run(&|| {}, |_| {}).optimum.x / hk
+        let optimum = minimize_1d(&settings, 1e100, |field| {
+            vec![run_ensemble(&AlignParams::paper_defaults(m.clone(), field)).alignment_time_s]
+        });
+        optimum.x / hk
     };
     let (sr, nd) = (optimum_over_hk("srfe12o19"), optimum_over_hk("nd2fe14b"));
     assert!((sr / nd - 1.0).abs() < 1e-3, "optimum/H_K: {sr} vs {nd}");
@@ -169,9 +167,8 @@ fn frictionless_dem_matches_the_ensemble_within_replicate_noise() {
     params.wall_friction = 0.0;
     let taus: Vec<f64> = (1..=4)
         .map(|seed| {
-            run_once(&params, ModelKind::Dem, seed)
-                .alignment_time_s
-                .unwrap()
+            let packing = Packing::generate(&params.packing(), seed).unwrap();
+            dem::align(&params, &packing).alignment_time_s.unwrap()
         })
         .collect();
     let mean = taus.iter().sum::<f64>() / 4.0;
@@ -222,36 +219,31 @@ fn results_are_bit_identical_at_one_and_two_threads() {
     let mut params = sr_ferrite(40.0);
     params.particles = 80;
     params.numerics.parallel_from = 0; // exercise the parallel sweep inside each run
-    let search = FieldSearch {
-        base: params,
+    let setup = magopt::models::align::study::AlignSetup {
+        params,
         model: ModelKind::Dem,
-        replicates: 3,
-        seed: 11,
-        settings: Settings {
-            lower: 1.0,
-            upper: 2.0,
-            scan_points: 3,
-            brent_iterations: 0,
-            rel_tolerance: 1e-3,
-            band: 0.02,
-        },
+        wall_friction_set: false,
     };
     let run_with = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
+        let model = AlignModel::new(MaterialDb::builtin());
         pool.install(|| {
-            let packings = search.packings(&|| {});
-            search.evaluate(30.0 * si_per_unit("kOe"), &packings, &|| {})
+            use rayon::prelude::*;
+            (11..14u64)
+                .into_par_iter()
+                .map(|seed| model.outcome(&setup, seed))
+                .collect::<Vec<_>>()
         })
     };
     let (one, two) = (run_with(1), run_with(2));
     for (a, b) in one.iter().zip(&two) {
-        assert_eq!(a.outcome.series, b.outcome.series);
+        assert_eq!(a.series, b.series);
         assert_eq!(
-            a.outcome.alignment_time_s.map(f64::to_bits),
-            b.outcome.alignment_time_s.map(f64::to_bits)
+            a.alignment_time_s.map(f64::to_bits),
+            b.alignment_time_s.map(f64::to_bits)
         );
     }
 }

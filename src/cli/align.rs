@@ -4,14 +4,17 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
-use super::{count, number, quantity};
+use super::count;
 use crate::materials::MaterialDb;
-use crate::models::align::field_search::{run_once, FieldSearch, FieldSearchResult, RunRecord};
 use crate::models::align::report;
-use crate::models::align::{AlignParams, ModelKind, PressureMode};
-use crate::optimize::Settings;
-use crate::output::{atomic, plot, table};
-use crate::units::{to_unit, Dimension};
+use crate::models::align::study::{AlignModel, AlignSetup};
+use crate::models::align::{ModelKind, PressureMode};
+use crate::output::{atomic, plot};
+use crate::study::model::{StudyModel, Value};
+use crate::study::optimize::{optimize, StudyOptimum};
+use crate::study::records::{self, RunRecord};
+use crate::study::spec::{OptimizeSpec, Study};
+use crate::units::to_unit;
 use crate::{Error, Result};
 
 /// Physics options shared by `align` and `optimize-field`. Bare numbers are in the unit named
@@ -78,23 +81,53 @@ pub struct PhysicsArgs {
 }
 
 impl PhysicsArgs {
-    fn params(&self, db: &MaterialDb, field: f64) -> Result<AlignParams> {
-        let mut p = AlignParams::paper_defaults(db.get(&self.material)?.clone(), field);
-        p.friction = number("friction", self.friction)?;
-        p.wall_friction = number("wall-friction", self.wall_friction.unwrap_or(self.friction))?;
-        p.pressure = quantity("pressure", &self.pressure, Dimension::Pressure, "atm")?;
-        p.pressure_mode = self.pressure_mode;
-        p.particles = count("particles", &self.particles)?;
-        p.mean_diameter = quantity("diameter", &self.diameter, Dimension::Length, "um")?;
-        p.diameter_sigma = number("diameter-sigma", self.diameter_sigma)?;
-        p.damping = number("damping", self.damping)?;
-        p.target = number("target", self.target)?;
-        p.max_time = quantity("max-time", &self.max_time, Dimension::Time, "s")?;
-        p.numerics.rotation_step = number("rotation-step", self.rotation_step)?;
-        p.numerics.friction_regularization =
-            number("friction-regularization", self.friction_regularization)?;
-        p.validate()?;
-        Ok(p)
+    /// (parameter, value) pairs as the study model names them.
+    fn pairs(&self, field: &str) -> Vec<(&'static str, String)> {
+        let mode = match self.pressure_mode {
+            PressureMode::ExposedLayer => "exposed-layer",
+            PressureMode::SourceLayer => "source-layer",
+        };
+        let mut pairs = vec![
+            ("material", self.material.clone()),
+            ("model", format!("{:?}", self.model).to_lowercase()),
+            ("field", field.to_string()),
+            ("friction", self.friction.to_string()),
+            ("pressure", self.pressure.clone()),
+            ("pressure_mode", mode.to_string()),
+            ("particles", self.particles.clone()),
+            ("diameter", self.diameter.clone()),
+            ("diameter_sigma", self.diameter_sigma.to_string()),
+            ("damping", self.damping.to_string()),
+            ("target", self.target.to_string()),
+            ("max_time", self.max_time.clone()),
+            ("rotation_step", self.rotation_step.to_string()),
+            (
+                "friction_regularization",
+                self.friction_regularization.to_string(),
+            ),
+        ];
+        if let Some(w) = self.wall_friction {
+            pairs.push(("wall_friction", w.to_string()));
+        }
+        pairs
+    }
+
+    /// The run setup and its parsed values (through the same parameter table as study files).
+    fn setup(&self, model: &AlignModel, field: &str) -> Result<(AlignSetup, Vec<(String, Value)>)> {
+        let mut setup = model.defaults();
+        let mut values = Vec::new();
+        for (name, text) in self.pairs(field) {
+            let option = name.replace('_', "-");
+            let value = model
+                .spec(name)?
+                .parse(&toml::Value::String(text))
+                .map_err(|e| Error::input(format!("--{option}: {}", strip_name(&e, name))))?;
+            model.set(&mut setup, name, &value)?;
+            values.push((name.to_string(), value));
+        }
+        model.validate(&setup)?;
+        values.sort_by(|a, b| a.0.cmp(&b.0));
+        Ok((setup, values))
     }
 
     fn prepare_out(&self) -> Result<Option<&Path>> {
@@ -103,6 +136,14 @@ impl PhysicsArgs {
         }
         Ok(self.out.as_deref())
     }
+}
+
+/// A parameter error's message without its leading "name: ".
+fn strip_name(e: &Error, name: &str) -> String {
+    let text = e.to_string();
+    text.strip_prefix(&format!("{name}: "))
+        .unwrap_or(&text)
+        .to_string()
 }
 
 /// `magopt align` options.
@@ -145,36 +186,29 @@ pub struct OptimizeArgs {
 
 /// One run.
 pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
-    let field = quantity("field", &args.field, Dimension::MagneticField, "kOe")?;
-    let params = args.physics.params(db, field)?;
+    let model = AlignModel::new(db.clone());
+    let (setup, values) = args.physics.setup(&model, &args.field)?;
     let out = args.physics.prepare_out()?;
     let seed = args.physics.seed;
-    let outcome = run_once(&params, args.physics.model, seed);
-    let record = RunRecord {
-        field,
-        replicate: 0,
-        seed,
-        outcome,
-    };
+    let study = preset(&setup, values, 1, seed, None, "align");
+    let outcome = model.outcome(&setup, seed);
     if let Some(dir) = out {
-        let records = std::slice::from_ref(&record);
-        table::write_parquet(
-            &dir.join("runs.parquet"),
-            &report::runs_table(&params, args.physics.model, records),
-        )?;
-        table::write_parquet(&dir.join("series.parquet"), &report::series_table(records))?;
+        let run = study.runs(&model).remove(0);
+        let record = RunRecord::new(&run, model.run(&setup, seed));
+        records::save(dir, &record)?;
+        records::write_results(&model, &study, dir, &[record], &command_line())?;
     }
-    let o = &record.outcome;
+    let (params, o) = (&setup.params, &outcome);
     if args.physics.json {
-        println!("{}", report::run_json(&params, args.physics.model, seed, o));
+        println!("{}", report::run_json(params, setup.model, seed, o));
         return Ok(());
     }
     println!(
         "{} at {:.2} kOe (h = H/H_K = {:.3}), {} model, seed {seed}",
         params.material.name,
-        to_unit(field, "kOe"),
+        to_unit(params.field, "kOe"),
         params.reduced_field(),
-        format!("{:?}", args.physics.model).to_lowercase()
+        format!("{:?}", setup.model).to_lowercase()
     );
     match o.alignment_time_s {
         Some(t) => println!("alignment time τ_{} = {t:.3} s", params.target),
@@ -196,7 +230,10 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
         o.final_alignment, o.steps, o.wall_time_s
     );
     if let Some(f) = o.sticking_fraction {
-        println!("friction-loaded contacts sticking at the end: {:.0} %", 100.0 * f);
+        println!(
+            "friction-loaded contacts sticking at the end: {:.0} %",
+            100.0 * f
+        );
         if f > 0.5 {
             println!("note: creep regime: τ at high targets depends on --friction-regularization; compare τ_0.90");
         }
@@ -204,48 +241,111 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
     Ok(())
 }
 
-/// The field optimization.
+/// A study built from command-line options: no sweep, optionally one free parameter. Its text
+/// (saved as study.toml) lists the parameters so the run can be repeated with `magopt sweep`.
+fn preset(
+    setup: &AlignSetup,
+    values: Vec<(String, Value)>,
+    replicates: usize,
+    seed: u64,
+    optimize: Option<OptimizeSpec>,
+    name: &str,
+) -> Study<AlignModel> {
+    let mut text = format!("# written by `{}`\nname = \"{name}\"\nmodel = \"align\"\nreplicates = {replicates}\nseed = {seed}\n\n[base]\n", command_line());
+    for (k, v) in &values {
+        if optimize
+            .as_ref()
+            .is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k))
+        {
+            continue;
+        }
+        match v {
+            Value::Number(x) => text += &format!("{k} = {x:?}\n"),
+            Value::Text(t) => text += &format!("{k} = {t:?}\n"),
+        }
+    }
+    if let Some(o) = &optimize {
+        let (spec, lo, hi) = o.free[0];
+        text += &format!(
+            "\n[optimize]\nparameters = {{ {} = [{lo:?}, {hi:?}] }}\nmetric = {:?}\nscan_points = {}\niterations = {}\nband = {}\n",
+            spec.name, o.metric, o.scan_points, o.iterations, o.band
+        );
+    }
+    let base_values = values
+        .into_iter()
+        .filter(|(k, _)| {
+            !optimize
+                .as_ref()
+                .is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k))
+        })
+        .collect();
+    Study {
+        name: name.to_string(),
+        replicates,
+        seed,
+        metrics: AlignModel::metric_names(),
+        base: setup.clone(),
+        base_values,
+        axes: Vec::new(),
+        optimize,
+        text,
+    }
+}
+
+fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// The field optimization: a preset of `magopt optimize` (one free parameter, the field).
 pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
-    let lower = quantity(
-        "field-min",
-        &args.field_min,
-        Dimension::MagneticField,
-        "kOe",
-    )?;
-    let upper = quantity(
-        "field-max",
-        &args.field_max,
-        Dimension::MagneticField,
-        "kOe",
-    )?;
+    let model = AlignModel::new(db.clone());
+    let (setup, values) = args.physics.setup(&model, &args.field_min)?;
+    let field = model.spec("field")?;
+    let parse = |option: &str, text: &str| match field.parse(&toml::Value::String(text.to_string()))
+    {
+        Ok(Value::Number(x)) => Ok(x),
+        Ok(Value::Text(_)) => Err(Error::input(format!("--{option}: '{text}' is not a field"))),
+        Err(e) => Err(Error::input(format!(
+            "--{option}: {}",
+            strip_name(&e, "field")
+        ))),
+    };
+    let lower = parse("field-min", &args.field_min)?;
+    let upper = parse("field-max", &args.field_max)?;
     if !(lower > 0.0 && lower < upper) {
         return Err(Error::input(format!(
             "--field-min {} and --field-max {}: need 0 < field-min < field-max",
             args.field_min, args.field_max
         )));
     }
-    let band = number("band", args.band)?;
-    if !(band > 0.0 && band < 1.0) {
+    if !(args.band > 0.0 && args.band < 1.0) {
         return Err(Error::input(format!(
-            "--band: {band} is not allowed (need 0 < band < 1)"
+            "--band: {} is not allowed (need 0 < band < 1)",
+            args.band
         )));
     }
-    let params = args.physics.params(db, lower)?;
-    let scan_points = count("scan-points", &args.scan_points)?.max(3);
-    let search = FieldSearch {
-        base: params.clone(),
-        model: args.physics.model,
-        replicates: count("replicates", &args.replicates)?,
-        seed: args.physics.seed,
-        settings: Settings {
-            lower,
-            upper,
-            scan_points,
-            brent_iterations: args.brent_iterations,
-            rel_tolerance: 1e-3,
-            band,
-        },
+    let replicates = match setup.model {
+        ModelKind::Dem => count("replicates", &args.replicates)?,
+        ModelKind::Ensemble => 1, // deterministic: one evaluation per field suffices
     };
+    let spec = OptimizeSpec {
+        metric: "alignment_time_s".into(),
+        maximize: false,
+        free: vec![(field, lower, upper)],
+        log: true,
+        scan_points: count("scan-points", &args.scan_points)?.max(3),
+        iterations: args.brent_iterations,
+        band: args.band,
+    };
+    let seed = args.physics.seed;
+    let study = preset(
+        &setup,
+        values,
+        replicates,
+        seed,
+        Some(spec.clone()),
+        "optimize-field",
+    );
     if let Some(threads) = args.threads {
         if threads == 0 {
             return Err(Error::input("--threads: 0 is not allowed (need ≥ 1)"));
@@ -256,47 +356,57 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
             .ok();
     }
     let out = args.physics.prepare_out()?;
-    let bar = progress_bar(search.expected_work());
-    let mut write_error = None;
-    let result = search.run(&|| bar.inc(1), |runs| {
-        if let Some(dir) = out {
-            if let Err(e) = write_runs(dir, &params, search.model, runs) {
-                write_error.get_or_insert(e);
-            }
-        }
-    });
+    let bar = progress_bar((spec.scan_points as u64 + spec.iterations) * replicates as u64);
+    let result = optimize(&model, &study, out, &|| bar.inc(1));
     bar.finish_and_clear();
-    if let Some(e) = write_error {
-        return Err(e);
-    }
-    let seeds: Vec<u64> = (0..search.replicates)
-        .map(|r| search.replicate_seed(r))
-        .collect();
-    let summary = report::optimum_json(&params, search.model, &result, &seeds);
+    let result = result?;
+    let optimum = result.one_dimensional.clone().expect("one free parameter");
+    let seeds: Vec<u64> = (0..replicates).map(|r| seed + r as u64).collect();
+    let summary = report::optimum_json(&setup.params, setup.model, &optimum, &seeds);
     if let Some(dir) = out {
+        write_optimize_results(&model, &study, dir, &result)?;
         atomic::write_json_atomic(&dir.join("optimum.json"), &summary)?;
-        let figure = report::tau_figure(&params, search.model, &result.optimum, band);
+        let figure = report::tau_figure(&setup.params, setup.model, &optimum, args.band);
         plot::render_png(&dir.join("tau_vs_field.png"), &figure)?;
     }
     if args.physics.json {
         println!("{summary}");
     } else {
-        print_summary(&params, &search, &result);
+        print_summary(&setup, replicates, args.band, &optimum);
     }
     Ok(())
 }
 
-fn write_runs(
+/// evaluations.parquet (one row per field and replicate), series.parquet, study.toml,
+/// provenance.json.
+fn write_optimize_results(
+    model: &AlignModel,
+    study: &Study<AlignModel>,
     dir: &Path,
-    params: &AlignParams,
-    model: ModelKind,
-    runs: &[RunRecord],
+    result: &StudyOptimum,
 ) -> Result<()> {
-    table::write_parquet(
+    let optimize = study.optimize.as_ref().expect("optimization");
+    let cols = records::Columns {
+        axes: optimize
+            .free
+            .iter()
+            .map(|(s, ..)| (s.column(), *s))
+            .collect(),
+        metrics: study.metrics.clone(),
+    };
+    crate::output::table::write_parquet(
         &dir.join("evaluations.parquet"),
-        &report::runs_table(params, model, runs),
+        &records::runs_table(model.name(), &cols, &result.records),
     )?;
-    table::write_parquet(&dir.join("series.parquet"), &report::series_table(runs))
+    crate::output::table::write_parquet(
+        &dir.join("series.parquet"),
+        &records::series_table(&cols, &result.records),
+    )?;
+    atomic::write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
+    atomic::write_json_atomic(
+        &dir.join("provenance.json"),
+        &records::provenance(model, study, &command_line()),
+    )
 }
 
 fn progress_bar(total: u64) -> ProgressBar {
@@ -311,21 +421,17 @@ fn progress_bar(total: u64) -> ProgressBar {
     bar
 }
 
-fn print_summary(params: &AlignParams, search: &FieldSearch, result: &FieldSearchResult) {
-    let o = &result.optimum;
+fn print_summary(setup: &AlignSetup, replicates: usize, band: f64, o: &crate::optimize::Optimum) {
+    let params = &setup.params;
     let koe = |x: f64| to_unit(x, "kOe");
     println!(
         "{} ({} model, μ = {}, P = {:.3} atm, N = {}, {} replicate(s)); H_K = {:.2} kOe",
         params.material.name,
-        format!("{:?}", search.model).to_lowercase(),
+        format!("{:?}", setup.model).to_lowercase(),
         params.friction,
         to_unit(params.pressure, "atm"),
         params.particles,
-        if search.model == ModelKind::Dem {
-            search.replicates
-        } else {
-            1
-        },
+        replicates,
         koe(params.material.anisotropy_field())
     );
     println!(
@@ -355,7 +461,7 @@ fn print_summary(params: &AlignParams, search: &FieldSearch, result: &FieldSearc
     );
     println!(
         "fields within {} % of the fastest: {:.1}–{:.1} kOe (the lowest is the cheapest nearly-optimal choice)",
-        search.settings.band * 100.0,
+        band * 100.0,
         koe(o.band.0),
         koe(o.band.1)
     );

@@ -45,7 +45,14 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
     println!("align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, settled packing");
     println!(
         "{:>8} {:>7} {:>11} {:>7} {:>8} {:>11} {:>16} {:>13}",
-        "N", "threads", "settle (s)", "steps", "sweeps", "align (s)", "particle-steps/s", "peak RSS (MB)"
+        "N",
+        "threads",
+        "settle (s)",
+        "steps",
+        "sweeps",
+        "align (s)",
+        "particle-steps/s",
+        "peak RSS (MB)"
     );
     for n_text in &args.particles {
         let n = count("particles", n_text)?;
@@ -55,7 +62,8 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
                 .num_threads(threads)
                 .build()
                 .map_err(|e| Error::Output(format!("thread pool: {e}")))?;
-            let mut params = AlignParams::paper_defaults(material.clone(), 40.0 * si_per_unit("kOe"));
+            let mut params =
+                AlignParams::paper_defaults(material.clone(), 40.0 * si_per_unit("kOe"));
             params.particles = n;
             params.max_time = args.max_steps as f64 * 1e9; // bounded by --max-steps below
             let started = Instant::now();
@@ -68,7 +76,10 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
             let rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
             println!(
                 "{n:>8} {threads:>7} {settle:>11.2} {:>7} {:>8} {:>11.2} {rate:>16.3e} {:>13.1}",
-                outcome.steps, outcome.solver_sweeps, outcome.wall_time_s, peak_rss_mb()
+                outcome.steps,
+                outcome.solver_sweeps,
+                outcome.wall_time_s,
+                peak_rss_mb()
             );
         }
     }

@@ -3,12 +3,12 @@
 
 mod align;
 mod bench;
+mod study;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 use crate::materials::MaterialDb;
-use crate::units::{parse_quantity, Dimension};
 use crate::{Error, Result};
 
 /// magopt: simulation-based optimization of magnetic particle processes.
@@ -32,6 +32,14 @@ enum Command {
     Align(align::AlignArgs),
     /// Find the field that aligns the powder fastest (the headline study).
     OptimizeField(align::OptimizeArgs),
+    /// Run a study file's grid × replicates in parallel; tables and provenance into --out.
+    Sweep(study::SweepArgs),
+    /// Optimize the free parameter(s) of a study file's [optimize] table.
+    Optimize(study::OptimizeArgs),
+    /// Merge the result directories of shards of one study into one result.
+    Collect(study::CollectArgs),
+    /// Render the standard figures of a study result directory into DIR/plots/.
+    Plot(study::PlotArgs),
     /// Benchmarks: DEM particle-steps per second and peak memory.
     Bench(bench::BenchArgs),
 }
@@ -82,23 +90,11 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Align(args) => align::run_align(&db, &args),
         Command::OptimizeField(args) => align::run_optimize(&db, &args),
+        Command::Sweep(args) => study::sweep(db, &args),
+        Command::Optimize(args) => study::optimize(db, &args),
+        Command::Collect(args) => study::collect(db, &args),
+        Command::Plot(args) => study::plot(&args),
         Command::Bench(args) => bench::run(&db, &args),
-    }
-}
-
-/// Parses an option value with units, naming the option in the error.
-fn quantity(option: &str, text: &str, dim: Dimension, default_unit: &str) -> Result<f64> {
-    parse_quantity(text, dim, default_unit).map_err(|e| Error::input(format!("--{option}: {e}")))
-}
-
-/// A finite number (dimensionless option).
-fn number(option: &str, value: f64) -> Result<f64> {
-    if value.is_finite() {
-        Ok(value)
-    } else {
-        Err(Error::input(format!(
-            "--{option}: {value} is not a finite number"
-        )))
     }
 }
 

@@ -7,10 +7,10 @@
 
 pub mod dem;
 pub mod ensemble;
-pub mod field_search;
 pub mod params;
 pub mod report;
 pub mod stoner_wohlfarth;
+pub mod study;
 
 use serde::Serialize;
 
@@ -86,6 +86,30 @@ pub struct AlignOutcome {
     pub sticking_fraction: Option<f64>,
     /// Wall-clock time of the run, s.
     pub wall_time_s: f64,
+}
+
+impl AlignOutcome {
+    /// A run that failed before or during alignment.
+    pub fn failed(reason: &str) -> AlignOutcome {
+        AlignOutcome {
+            status: Status::Failed(reason.to_string()),
+            alignment_time_s: None,
+            alignment_time_90_s: None,
+            final_alignment: f64::NAN,
+            series: Vec::new(),
+            steps: 0,
+            time_step_s: 0.0,
+            packing_fraction: None,
+            contacts: None,
+            bed_height_m: None,
+            applied_force_n: None,
+            nominal_force_n: None,
+            solver_sweeps: 0,
+            unconverged_solves: 0,
+            sticking_fraction: None,
+            wall_time_s: 0.0,
+        }
+    }
 }
 
 /// Evaluates the ensemble model for a parameter set (deterministic; no seed).

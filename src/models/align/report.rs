@@ -3,121 +3,13 @@
 
 use serde_json::{json, Value};
 
-use super::field_search::{FieldSearchResult, RunRecord};
 use super::{AlignOutcome, AlignParams, ModelKind};
 use crate::optimize::Optimum;
 use crate::output::plot::{Figure, Series, SeriesStyle};
-use crate::output::table::{ColumnData as C, Table};
 use crate::units::to_unit;
 
 /// The magopt version recorded with every result.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
-
-/// One row per run: parameters, seed, status, every scalar result, version.
-pub fn runs_table(params: &AlignParams, model: ModelKind, records: &[RunRecord]) -> Table {
-    let col = |f: &dyn Fn(&RunRecord) -> f64| C::F64(records.iter().map(f).collect());
-    let opt = |f: &dyn Fn(&AlignOutcome) -> Option<f64>| {
-        C::OptF64(records.iter().map(|r| f(&r.outcome)).collect())
-    };
-    let text = |s: String| C::Str(vec![s; records.len()]);
-    Table::new()
-        .with("field_A_per_m", col(&|r| r.field))
-        .with("field_kOe", col(&|r| to_unit(r.field, "kOe")))
-        .with(
-            "replicate",
-            C::U64(records.iter().map(|r| r.replicate as u64).collect()),
-        )
-        .with("seed", C::U64(records.iter().map(|r| r.seed).collect()))
-        .with(
-            "status",
-            C::Str(
-                records
-                    .iter()
-                    .map(|r| r.outcome.status.label().to_string())
-                    .collect(),
-            ),
-        )
-        .with(
-            "reason",
-            C::Str(records.iter().map(|r| reason(&r.outcome)).collect()),
-        )
-        .with("alignment_time_s", opt(&|o| o.alignment_time_s))
-        .with("alignment_time_90_s", opt(&|o| o.alignment_time_90_s))
-        .with("final_alignment", col(&|r| r.outcome.final_alignment))
-        .with(
-            "steps",
-            C::U64(records.iter().map(|r| r.outcome.steps as u64).collect()),
-        )
-        .with("time_step_s", col(&|r| r.outcome.time_step_s))
-        .with("packing_fraction", opt(&|o| o.packing_fraction))
-        .with("contacts", opt(&|o| o.contacts.map(|c| c as f64)))
-        .with("bed_height_m", opt(&|o| o.bed_height_m))
-        .with("applied_force_N", opt(&|o| o.applied_force_n))
-        .with("nominal_force_N", opt(&|o| o.nominal_force_n))
-        .with(
-            "solver_sweeps",
-            C::U64(
-                records
-                    .iter()
-                    .map(|r| r.outcome.solver_sweeps as u64)
-                    .collect(),
-            ),
-        )
-        .with(
-            "unconverged_solves",
-            C::U64(
-                records
-                    .iter()
-                    .map(|r| r.outcome.unconverged_solves as u64)
-                    .collect(),
-            ),
-        )
-        .with("sticking_fraction", opt(&|o| o.sticking_fraction))
-        .with("wall_time_s", col(&|r| r.outcome.wall_time_s))
-        .with("model", text(format!("{model:?}").to_lowercase()))
-        .with("material", text(params.material.name.clone()))
-        .with("friction", C::F64(vec![params.friction; records.len()]))
-        .with("pressure_Pa", C::F64(vec![params.pressure; records.len()]))
-        .with(
-            "particles",
-            C::U64(vec![params.particles as u64; records.len()]),
-        )
-        .with("target", C::F64(vec![params.target; records.len()]))
-        .with("magopt_version", text(VERSION.to_string()))
-}
-
-fn reason(outcome: &AlignOutcome) -> String {
-    match &outcome.status {
-        super::Status::Failed(reason) => reason.clone(),
-        _ => String::new(),
-    }
-}
-
-/// Long-format A(t) series: field, replicate, time, alignment.
-pub fn series_table(records: &[RunRecord]) -> Table {
-    let rows: Vec<(&RunRecord, f64, f64)> = records
-        .iter()
-        .flat_map(|r| r.outcome.series.iter().map(move |&(t, a)| (r, t, a)))
-        .collect();
-    Table::new()
-        .with(
-            "field_kOe",
-            C::F64(
-                rows.iter()
-                    .map(|(r, _, _)| to_unit(r.field, "kOe"))
-                    .collect(),
-            ),
-        )
-        .with(
-            "replicate",
-            C::U64(rows.iter().map(|(r, _, _)| r.replicate as u64).collect()),
-        )
-        .with("time_s", C::F64(rows.iter().map(|(_, t, _)| *t).collect()))
-        .with(
-            "alignment",
-            C::F64(rows.iter().map(|(_, _, a)| *a).collect()),
-        )
-}
 
 /// τ versus H with replicate error bars (standard deviation), the optimum and the band.
 pub fn tau_figure(params: &AlignParams, model: ModelKind, optimum: &Optimum, band: f64) -> Figure {
@@ -153,14 +45,14 @@ pub fn tau_figure(params: &AlignParams, model: ModelKind, optimum: &Optimum, ban
     }
 }
 
-/// The JSON summary of a field search.
+/// The JSON summary of a field search (`optimize-field --json` and `optimum.json`).
 pub fn optimum_json(
     params: &AlignParams,
     model: ModelKind,
-    search: &FieldSearchResult,
+    optimum: &Optimum,
     seeds: &[u64],
 ) -> Value {
-    let o = &search.optimum;
+    let o = optimum;
     let koe = |x: f64| to_unit(x, "kOe");
     let finite = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     json!({
@@ -186,6 +78,13 @@ pub fn optimum_json(
         })).collect::<Vec<_>>(),
         "magopt_version": VERSION,
     })
+}
+
+fn reason(outcome: &AlignOutcome) -> String {
+    match &outcome.status {
+        super::Status::Failed(reason) => reason.clone(),
+        _ => String::new(),
+    }
 }
 
 /// The JSON summary of one run.

@@ -1,0 +1,329 @@
+//! `magopt sweep`, `optimize`, `collect` and `plot`: study files in, result directories out.
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+
+use crate::materials::MaterialDb;
+use crate::models::align::study::AlignModel;
+use crate::output::atomic;
+use crate::study::model::StudyModel;
+use crate::study::records::{self, Columns};
+use crate::study::runner::{self, Shard, SweepOptions};
+use crate::study::spec::{model_name, Study};
+use crate::units::to_unit;
+use crate::{Error, Result};
+
+/// `magopt sweep` options.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// The study file (TOML; see studies/ and README).
+    study: PathBuf,
+    /// Result directory [default: results/<study name>].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Continue an interrupted sweep: skip runs already saved in --out.
+    #[arg(long)]
+    resume: bool,
+    /// Run only slice I of N (0 ≤ I < N) of the run list, for job arrays.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<Shard>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+/// `magopt optimize` options.
+#[derive(Debug, Args)]
+pub struct OptimizeArgs {
+    /// The study file with an [optimize] table.
+    study: PathBuf,
+    /// Result directory [default: results/<study name>-optimize]; finished runs there are reused.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `magopt collect` options.
+#[derive(Debug, Args)]
+pub struct CollectArgs {
+    /// Result directories of the shards (same study).
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// Where the merged result goes [default: the first directory].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+/// `magopt plot` options.
+#[derive(Debug, Args)]
+pub struct PlotArgs {
+    /// A study result directory (from sweep or collect).
+    dir: PathBuf,
+}
+
+fn read_study(path: &Path) -> Result<(String, String)> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::input(format!("cannot read study file '{}': {e}", path.display())))?;
+    let origin = path.display().to_string();
+    let model = model_name(&text, &origin)?;
+    Ok((text, model))
+}
+
+/// Dispatches on the study's model (the only place that lists the models).
+fn with_model<T>(
+    db: MaterialDb,
+    model: &str,
+    origin: &str,
+    f: impl FnOnce(&AlignModel) -> Result<T>,
+) -> Result<T> {
+    match model {
+        "align" => f(&AlignModel::new(db)),
+        other => Err(Error::input(format!(
+            "{origin}: model: '{other}' is not available (available: align)"
+        ))),
+    }
+}
+
+fn threads(n: Option<usize>) -> Result<()> {
+    if let Some(n) = n {
+        if n == 0 {
+            return Err(Error::input("--threads: 0 is not allowed (need ≥ 1)"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .ok();
+    }
+    Ok(())
+}
+
+fn bar() -> ProgressBar {
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs (ETA {eta})",
+        )
+        .expect("static template"),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    bar
+}
+
+fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// `magopt sweep`.
+pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<()> {
+    threads(args.threads)?;
+    let (text, model) = read_study(&args.study)?;
+    let origin = args.study.display().to_string();
+    with_model(db, &model, &origin, |m| {
+        let study = Study::parse(m, &text, &origin)?;
+        let out = args
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("results").join(&study.name));
+        let options = SweepOptions {
+            out: out.clone(),
+            resume: args.resume,
+            shard: args.shard,
+            command: command_line(),
+        };
+        let bar = bar();
+        let report = runner::sweep(m, &study, &options, |n| bar.set_length(n as u64), &|| {
+            bar.inc(1)
+        });
+        bar.finish_and_clear();
+        let report = report?;
+        println!(
+            "{}: {} runs done now, {} were already done, {} not ok; results in {}",
+            study.name,
+            report.ran,
+            report.skipped,
+            report.unsuccessful,
+            out.display()
+        );
+        Ok(())
+    })
+}
+
+/// `magopt optimize`.
+pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<()> {
+    threads(args.threads)?;
+    let (text, model) = read_study(&args.study)?;
+    let origin = args.study.display().to_string();
+    with_model(db, &model, &origin, |m| {
+        let study = Study::parse(m, &text, &origin)?;
+        let spec = study
+            .optimize
+            .clone()
+            .ok_or_else(|| Error::input(format!("{origin}: no [optimize] table")))?;
+        let out = args
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("results").join(format!("{}-optimize", study.name)));
+        let bar = bar();
+        bar.set_length((spec.scan_points as u64 + spec.iterations) * study.replicates as u64);
+        let result = crate::study::optimize::optimize(m, &study, Some(&out), &|| bar.inc(1));
+        bar.finish_and_clear();
+        let result = result?;
+        let cols = Columns {
+            axes: spec.free.iter().map(|(s, ..)| (s.column(), *s)).collect(),
+            metrics: study.metrics.clone(),
+        };
+        crate::output::table::write_parquet(
+            &out.join("evaluations.parquet"),
+            &records::runs_table(m.name(), &cols, &result.records),
+        )?;
+        crate::output::table::write_parquet(
+            &out.join("series.parquet"),
+            &records::series_table(&cols, &result.records),
+        )?;
+        atomic::write_atomic(&out.join("study.toml"), study.text.as_bytes())?;
+        atomic::write_json_atomic(
+            &out.join("provenance.json"),
+            &records::provenance(m, &study, &command_line()),
+        )?;
+        let summary = optimum_json(&study, &result);
+        atomic::write_json_atomic(&out.join("optimum.json"), &summary)?;
+        if args.json {
+            println!("{summary}");
+        } else {
+            print_optimum(&study, &result, &out);
+        }
+        Ok(())
+    })
+}
+
+fn display(spec: &crate::study::model::ParamSpec, x: f64) -> f64 {
+    match spec.kind {
+        crate::study::model::ParamKind::Quantity { unit, .. } => to_unit(x, unit),
+        _ => x,
+    }
+}
+
+fn optimum_json<M: StudyModel>(
+    study: &Study<M>,
+    result: &crate::study::optimize::StudyOptimum,
+) -> serde_json::Value {
+    let spec = study.optimize.as_ref().expect("optimize");
+    let finite = |x: f64| {
+        if x.is_finite() {
+            serde_json::json!(x)
+        } else {
+            serde_json::Value::Null
+        }
+    };
+    let named = |x: &[f64]| -> serde_json::Map<String, serde_json::Value> {
+        spec.free
+            .iter()
+            .zip(x)
+            .map(|((s, ..), &v)| (s.column(), serde_json::json!(display(s, v))))
+            .collect()
+    };
+    let one = result.one_dimensional.as_ref();
+    let (s0, ..) = spec.free[0];
+    serde_json::json!({
+        "study": study.name,
+        "metric": spec.metric,
+        "goal": if spec.maximize { "maximize" } else { "minimize" },
+        "optimum": named(&result.best),
+        "value": finite(result.value),
+        "uncertainty": one.map(|o| finite(display(s0, o.x + o.uncertainty) - display(s0, o.x))),
+        "band": one.map(|o| [display(s0, o.band.0), display(s0, o.band.1)]),
+        "evaluations": result.evaluations.iter().map(|(x, p)| serde_json::json!({
+            "parameters": named(x), "mean": finite(p.mean()), "std": finite(p.std()),
+            "replicates_with_value": p.values.iter().flatten().count(), "replicates": p.values.len(),
+        })).collect::<Vec<_>>(),
+        "seeds": (0..study.replicates).map(|r| study.seed + r as u64).collect::<Vec<_>>(),
+        "magopt_version": records::VERSION,
+    })
+}
+
+fn print_optimum<M: StudyModel>(
+    study: &Study<M>,
+    result: &crate::study::optimize::StudyOptimum,
+    out: &Path,
+) {
+    let spec = study.optimize.as_ref().expect("optimize");
+    let goal = if spec.maximize { "maximum" } else { "minimum" };
+    let at: Vec<String> = spec
+        .free
+        .iter()
+        .zip(&result.best)
+        .map(|((s, ..), &v)| format!("{} = {:.4}", s.label(), display(s, v)))
+        .collect();
+    println!(
+        "{}: {goal} of {} = {:.6} at {}",
+        study.name,
+        spec.metric,
+        result.value,
+        at.join(", ")
+    );
+    if let Some(o) = &result.one_dimensional {
+        let (s, ..) = spec.free[0];
+        if o.uncertainty.is_finite() {
+            println!(
+                "uncertainty (replicate optima, standard error): ±{:.4}",
+                display(s, o.x + o.uncertainty) - display(s, o.x)
+            );
+        }
+        println!(
+            "within {} % of the optimum: {:.4}–{:.4} {}",
+            spec.band * 100.0,
+            display(s, o.band.0),
+            display(s, o.band.1),
+            s.label()
+        );
+    }
+    println!(
+        "{} evaluations; results in {}",
+        result.evaluations.len(),
+        out.display()
+    );
+}
+
+/// `magopt collect`.
+pub fn collect(db: MaterialDb, args: &CollectArgs) -> Result<()> {
+    let first = &args.dirs[0];
+    let text = runner::saved_study_text(first)?;
+    for dir in &args.dirs[1..] {
+        if runner::saved_study_text(dir)? != text {
+            return Err(Error::input(format!(
+                "'{}' holds a different study than '{}': only shards of one study can be collected",
+                dir.display(),
+                first.display()
+            )));
+        }
+    }
+    let origin = first.join("study.toml").display().to_string();
+    let model = model_name(&text, &origin)?;
+    with_model(db, &model, &origin, |m| {
+        let study = Study::parse(m, &text, &origin)?;
+        let out = args.out.clone().unwrap_or_else(|| first.clone());
+        let n = runner::collect(m, &study, &args.dirs, &out, &command_line())?;
+        let total = study.runs(m).len();
+        println!(
+            "{}: collected {n} of {total} runs into {}",
+            study.name,
+            out.display()
+        );
+        Ok(())
+    })
+}
+
+/// `magopt plot`.
+pub fn plot(args: &PlotArgs) -> Result<()> {
+    let written = crate::study::plot::plot_study(&args.dir)?;
+    for path in written {
+        println!("{}", path.display());
+    }
+    Ok(())
+}

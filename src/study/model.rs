@@ -1,0 +1,204 @@
+//! How the study runner sees a model: parameters in (by name, with units), metrics and series
+//! out. Every model implements [`StudyModel`]; the runner never touches model internals.
+
+use serde::{Deserialize, Serialize};
+
+use crate::units::{parse_quantity, si_per_unit, to_unit, Dimension};
+use crate::{Error, Result};
+
+/// A parameter value after unit conversion: numbers are SI.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Value {
+    /// A number in SI units (or dimensionless).
+    Number(f64),
+    /// A name or a choice.
+    Text(String),
+}
+
+impl Value {
+    /// Canonical text for run ids: exact (round-trip) for numbers.
+    pub fn canonical(&self) -> String {
+        match self {
+            Value::Number(x) => format!("{x:?}"),
+            Value::Text(t) => format!("{t:?}"),
+        }
+    }
+}
+
+/// What kind of value a parameter takes.
+#[derive(Debug, Clone, Copy)]
+pub enum ParamKind {
+    /// A physical quantity: strings with units, bare numbers in `unit` (also the display unit).
+    Quantity {
+        /// Dimension accepted.
+        dim: Dimension,
+        /// Default and display unit.
+        unit: &'static str,
+    },
+    /// A dimensionless finite number.
+    Number,
+    /// A whole number ≥ 1.
+    Count,
+    /// One of a fixed list of names.
+    Choice(&'static [&'static str]),
+    /// Free text (e.g. a material name, checked by the model).
+    Name,
+}
+
+/// One parameter a model accepts.
+#[derive(Debug, Clone, Copy)]
+pub struct ParamSpec {
+    /// Name in study files (snake_case) and, with dashes, on the command line.
+    pub name: &'static str,
+    /// Value kind.
+    pub kind: ParamKind,
+}
+
+impl ParamSpec {
+    /// Parses a study-file or command-line value.
+    pub fn parse(&self, value: &toml::Value) -> Result<Value> {
+        let bad = |what: String| Error::input(format!("{}: {what}", self.name));
+        match (self.kind, value) {
+            (ParamKind::Quantity { dim, unit }, toml::Value::String(s)) => {
+                parse_quantity(s, dim, unit).map(Value::Number).map_err(bad)
+            }
+            (ParamKind::Quantity { unit, .. }, v) => {
+                Ok(Value::Number(number(v).map_err(bad)? * si_per_unit(unit)))
+            }
+            (ParamKind::Number, v) => Ok(Value::Number(number(v).map_err(bad)?)),
+            (ParamKind::Count, v) => {
+                let x = number(v).map_err(bad)?;
+                if x >= 1.0 && x.fract() == 0.0 && x <= 1e12 {
+                    Ok(Value::Number(x))
+                } else {
+                    Err(bad(format!("{x} is not allowed (need a whole number ≥ 1)")))
+                }
+            }
+            (ParamKind::Choice(options), toml::Value::String(s))
+                if options.contains(&s.as_str()) =>
+            {
+                Ok(Value::Text(s.clone()))
+            }
+            (ParamKind::Choice(options), v) => {
+                Err(bad(format!("{v} is not one of {}", options.join(", "))))
+            }
+            (ParamKind::Name, toml::Value::String(s)) => Ok(Value::Text(s.clone())),
+            (ParamKind::Name, v) => Err(bad(format!("{v} is not a name (need a string)"))),
+        }
+    }
+
+    /// Column name of the value in display units (`field_kOe`, `pressure_atm`, `friction`).
+    pub fn column(&self) -> String {
+        match self.kind {
+            ParamKind::Quantity { unit, .. } => {
+                format!("{}_{}", self.name, unit.replace('/', "_per_"))
+            }
+            _ => self.name.to_string(),
+        }
+    }
+
+    /// Axis label with unit.
+    pub fn label(&self) -> String {
+        match self.kind {
+            ParamKind::Quantity { unit, .. } => format!("{} ({unit})", self.name.replace('_', " ")),
+            _ => self.name.replace('_', " "),
+        }
+    }
+
+    /// A value in display units (numbers) or as text.
+    pub fn display(&self, value: &Value) -> Value {
+        match (self.kind, value) {
+            (ParamKind::Quantity { unit, .. }, Value::Number(x)) => {
+                Value::Number(to_unit(*x, unit))
+            }
+            (_, v) => v.clone(),
+        }
+    }
+}
+
+/// A finite number from a TOML number or a numeric string.
+fn number(value: &toml::Value) -> std::result::Result<f64, String> {
+    let x = match value {
+        toml::Value::Float(x) => *x,
+        toml::Value::Integer(i) => *i as f64,
+        toml::Value::String(s) => s
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| format!("'{s}' is not a number"))?,
+        other => return Err(format!("{other} is not a number")),
+    };
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("{x} is not a finite number"))
+    }
+}
+
+/// What one run reports to the runner.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    /// "ok", "not-reached" or "failed".
+    pub status: String,
+    /// Why it failed (empty otherwise).
+    pub reason: String,
+    /// Scalar metrics by name (None: not available in this run).
+    pub metrics: Vec<(String, Option<f64>)>,
+    /// Time series by observable name: (time in s, value).
+    pub series: Vec<(String, Vec<(f64, f64)>)>,
+    /// Wall-clock time, s.
+    pub wall_time_s: f64,
+}
+
+impl RunResult {
+    /// The value of one metric.
+    pub fn metric(&self, name: &str) -> Option<f64> {
+        self.metrics
+            .iter()
+            .find(|(n, _)| n == name)
+            .and_then(|(_, v)| *v)
+    }
+}
+
+/// A model as the study runner sees it.
+pub trait StudyModel: Sync {
+    /// Typed parameters of one run.
+    type Params: Clone + Send + Sync;
+    /// Name in study files.
+    fn name(&self) -> &'static str;
+    /// Every parameter it accepts.
+    fn parameters(&self) -> &'static [ParamSpec];
+    /// Every scalar metric it reports.
+    fn metrics(&self) -> &'static [&'static str];
+    /// Axis labels of its series observables.
+    fn series_labels(&self) -> &'static [(&'static str, &'static str)];
+    /// The documented defaults.
+    fn defaults(&self) -> Self::Params;
+    /// Sets one parameter (already unit-converted).
+    fn set(&self, params: &mut Self::Params, name: &str, value: &Value) -> Result<()>;
+    /// Checks a complete parameter set (names the offending value).
+    fn validate(&self, params: &Self::Params) -> Result<()>;
+    /// Runs one (parameters, seed). Blow-ups are failed results, not errors.
+    fn run(&self, params: &Self::Params, seed: u64) -> RunResult;
+
+    /// The spec of a parameter, or an error listing the known ones.
+    fn spec(&self, name: &str) -> Result<&'static ParamSpec> {
+        self.parameters()
+            .iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| {
+                let known: Vec<&str> = self.parameters().iter().map(|p| p.name).collect();
+                Error::input(format!(
+                    "unknown {} parameter '{name}' (known: {})",
+                    self.name(),
+                    known.join(", ")
+                ))
+            })
+    }
+
+    /// Parses and sets one parameter from a study-file value.
+    fn set_from(&self, params: &mut Self::Params, name: &str, value: &toml::Value) -> Result<()> {
+        let parsed = self.spec(name)?.parse(value)?;
+        self.set(params, name, &parsed)
+    }
+}

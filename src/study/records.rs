@@ -1,0 +1,388 @@
+//! Finished runs on disk and the tables built from them. Every finished run is one JSON file
+//! `runs/<id>.json`, written atomically the moment it finishes: an interrupted sweep loses only
+//! the runs in flight, `--resume` skips what is there, and shards merge by id.
+
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+use super::model::{RunResult, StudyModel, Value};
+use super::spec::{RunSpec, Study};
+use crate::output::atomic::{write_atomic, write_json_atomic};
+use crate::output::table::{write_parquet, ColumnData as C, Table};
+use crate::{Error, Result};
+
+/// The magopt version recorded with every result.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// One finished run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// Position in the run list.
+    pub index: usize,
+    /// Run id.
+    pub id: String,
+    /// Grid point (or evaluation) index.
+    pub point: usize,
+    /// Replicate index.
+    pub replicate: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Values of the swept (or free) parameters, SI.
+    pub values: Vec<Value>,
+    /// What the run gave.
+    pub result: RunResult,
+    /// magopt version that ran it.
+    pub magopt_version: String,
+}
+
+impl RunRecord {
+    /// A record for a run spec and its result.
+    pub fn new(run: &RunSpec, result: RunResult) -> Self {
+        Self {
+            index: run.index,
+            id: run.id.clone(),
+            point: run.point,
+            replicate: run.replicate,
+            seed: run.seed,
+            values: run.values.clone(),
+            result,
+            magopt_version: VERSION.to_string(),
+        }
+    }
+}
+
+/// Where a run's record lives.
+pub fn record_path(dir: &Path, id: &str) -> PathBuf {
+    dir.join("runs").join(format!("{id}.json"))
+}
+
+/// Writes a finished run atomically.
+pub fn save(dir: &Path, record: &RunRecord) -> Result<()> {
+    let runs = dir.join("runs");
+    std::fs::create_dir_all(&runs).map_err(|e| Error::io(runs, e))?;
+    let value = serde_json::to_value(record)
+        .map_err(|e| Error::Output(format!("run {}: {e}", record.id)))?;
+    write_json_atomic(&record_path(dir, &record.id), &value)
+}
+
+/// Reads a run's record if it exists.
+pub fn load(dir: &Path, id: &str) -> Result<Option<RunRecord>> {
+    let path = record_path(dir, id);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => serde_json::from_str(&text).map(Some).map_err(|e| {
+            Error::input(format!("{}: not a magopt run record ({e})", path.display()))
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(Error::io(path, e)),
+    }
+}
+
+/// Number of run records in a directory.
+pub fn count_saved(dir: &Path) -> usize {
+    std::fs::read_dir(dir.join("runs"))
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok())
+                .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+/// Names for the table columns of a study's swept (or free) parameters.
+pub struct Columns {
+    /// (column name, parameter spec) per axis.
+    pub axes: Vec<(String, &'static super::model::ParamSpec)>,
+    /// Metrics.
+    pub metrics: Vec<String>,
+}
+
+fn axis_column(spec: &super::model::ParamSpec, records: &[RunRecord], k: usize) -> ColumnData {
+    let shown: Vec<Value> = records.iter().map(|r| spec.display(&r.values[k])).collect();
+    if shown.iter().all(|v| matches!(v, Value::Number(_))) {
+        C::F64(
+            shown
+                .iter()
+                .map(|v| {
+                    if let Value::Number(x) = v {
+                        *x
+                    } else {
+                        f64::NAN
+                    }
+                })
+                .collect(),
+        )
+    } else {
+        C::Str(
+            shown
+                .iter()
+                .map(|v| match v {
+                    Value::Text(t) => t.clone(),
+                    Value::Number(x) => x.to_string(),
+                })
+                .collect(),
+        )
+    }
+}
+
+use crate::output::table::ColumnData;
+
+/// One row per run: index, id, point, replicate, seed, swept parameters (display units), status,
+/// reason, metrics, wall time, version, model.
+pub fn runs_table(model: &str, columns: &Columns, records: &[RunRecord]) -> Table {
+    let mut t = Table::new()
+        .with(
+            "run_index",
+            C::U64(records.iter().map(|r| r.index as u64).collect()),
+        )
+        .with(
+            "run_id",
+            C::Str(records.iter().map(|r| r.id.clone()).collect()),
+        )
+        .with(
+            "point",
+            C::U64(records.iter().map(|r| r.point as u64).collect()),
+        )
+        .with(
+            "replicate",
+            C::U64(records.iter().map(|r| r.replicate as u64).collect()),
+        )
+        .with("seed", C::U64(records.iter().map(|r| r.seed).collect()));
+    for (k, (name, spec)) in columns.axes.iter().enumerate() {
+        t.push(name, axis_column(spec, records, k));
+    }
+    t.push(
+        "status",
+        C::Str(records.iter().map(|r| r.result.status.clone()).collect()),
+    );
+    t.push(
+        "reason",
+        C::Str(records.iter().map(|r| r.result.reason.clone()).collect()),
+    );
+    for m in &columns.metrics {
+        t.push(
+            m,
+            C::OptF64(records.iter().map(|r| r.result.metric(m)).collect()),
+        );
+    }
+    t.push(
+        "wall_time_s",
+        C::F64(records.iter().map(|r| r.result.wall_time_s).collect()),
+    );
+    t.push(
+        "magopt_version",
+        C::Str(records.iter().map(|r| r.magopt_version.clone()).collect()),
+    );
+    t.push("model", C::Str(vec![model.to_string(); records.len()]));
+    t
+}
+
+/// Long-format series: run, point, replicate, swept parameters, observable, time, value.
+pub fn series_table(columns: &Columns, records: &[RunRecord]) -> Table {
+    let rows: Vec<(&RunRecord, &str, f64, f64)> = records
+        .iter()
+        .flat_map(|r| {
+            r.result
+                .series
+                .iter()
+                .flat_map(move |(name, s)| s.iter().map(move |&(t, v)| (r, name.as_str(), t, v)))
+        })
+        .collect();
+    let expanded: Vec<RunRecord> = rows.iter().map(|(r, ..)| (*r).clone()).collect();
+    let mut t = Table::new()
+        .with(
+            "run_index",
+            C::U64(rows.iter().map(|(r, ..)| r.index as u64).collect()),
+        )
+        .with(
+            "point",
+            C::U64(rows.iter().map(|(r, ..)| r.point as u64).collect()),
+        )
+        .with(
+            "replicate",
+            C::U64(rows.iter().map(|(r, ..)| r.replicate as u64).collect()),
+        );
+    for (k, (name, spec)) in columns.axes.iter().enumerate() {
+        t.push(name, axis_column(spec, &expanded, k));
+    }
+    t.push(
+        "observable",
+        C::Str(rows.iter().map(|(_, o, ..)| o.to_string()).collect()),
+    );
+    t.push(
+        "time_s",
+        C::F64(rows.iter().map(|(_, _, t, _)| *t).collect()),
+    );
+    t.push("value", C::F64(rows.iter().map(|(.., v)| *v).collect()));
+    t
+}
+
+/// Per point: swept parameters, then for each metric mean, std, count and the 95 % confidence
+/// half-width of the mean (Student t).
+pub fn summary_table(columns: &Columns, records: &[RunRecord]) -> Table {
+    let mut points: Vec<usize> = records.iter().map(|r| r.point).collect();
+    points.dedup();
+    points.sort_unstable();
+    points.dedup();
+    let firsts: Vec<RunRecord> = points
+        .iter()
+        .map(|p| records.iter().find(|r| r.point == *p).unwrap().clone())
+        .collect();
+    let mut t = Table::new().with("point", C::U64(points.iter().map(|&p| p as u64).collect()));
+    for (k, (name, spec)) in columns.axes.iter().enumerate() {
+        t.push(name, axis_column(spec, &firsts, k));
+    }
+    for m in &columns.metrics {
+        let stats: Vec<Stats> = points
+            .iter()
+            .map(|&p| {
+                Stats::of(
+                    records
+                        .iter()
+                        .filter(|r| r.point == p)
+                        .filter_map(|r| r.result.metric(m)),
+                )
+            })
+            .collect();
+        t.push(
+            &format!("{m}_mean"),
+            C::F64(stats.iter().map(|s| s.mean).collect()),
+        );
+        t.push(
+            &format!("{m}_std"),
+            C::F64(stats.iter().map(|s| s.std).collect()),
+        );
+        t.push(
+            &format!("{m}_count"),
+            C::U64(stats.iter().map(|s| s.count as u64).collect()),
+        );
+        t.push(
+            &format!("{m}_ci95"),
+            C::F64(stats.iter().map(|s| s.ci95).collect()),
+        );
+    }
+    t
+}
+
+/// Mean, sample standard deviation, count and 95 % CI half-width of a sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stats {
+    /// Mean (NaN if empty).
+    pub mean: f64,
+    /// Sample standard deviation (NaN below two values).
+    pub std: f64,
+    /// Number of values.
+    pub count: usize,
+    /// t_{0.975, n−1} · std / √n (NaN below two values).
+    pub ci95: f64,
+}
+
+impl Stats {
+    /// Statistics of the values.
+    pub fn of(values: impl Iterator<Item = f64>) -> Self {
+        let v: Vec<f64> = values.collect();
+        let n = v.len();
+        let mean = v.iter().sum::<f64>() / n as f64;
+        let std = if n >= 2 {
+            (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+        } else {
+            f64::NAN
+        };
+        let ci95 = if n >= 2 {
+            student_t_975(n - 1) * std / (n as f64).sqrt()
+        } else {
+            f64::NAN
+        };
+        Self {
+            mean,
+            std,
+            count: n,
+            ci95,
+        }
+    }
+}
+
+/// Two-sided 95 % quantile of Student's t with `df` degrees of freedom (tabulated to 30, then
+/// the normal value).
+fn student_t_975(df: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    T.get(df.wrapping_sub(1)).copied().unwrap_or(1.960)
+}
+
+/// Table columns of a study's axes and metrics.
+pub fn columns<M: StudyModel>(study: &Study<M>) -> Columns {
+    Columns {
+        axes: study
+            .axes
+            .iter()
+            .map(|a| (a.spec.column(), a.spec))
+            .collect(),
+        metrics: study.metrics.clone(),
+    }
+}
+
+/// Writes runs/series/summary tables, the study file and the provenance into `dir`.
+pub fn write_results<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    dir: &Path,
+    records: &[RunRecord],
+    command: &str,
+) -> Result<()> {
+    let cols = columns(study);
+    write_parquet(
+        &dir.join("runs.parquet"),
+        &runs_table(model.name(), &cols, records),
+    )?;
+    write_parquet(&dir.join("series.parquet"), &series_table(&cols, records))?;
+    write_parquet(&dir.join("summary.parquet"), &summary_table(&cols, records))?;
+    write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
+    write_json_atomic(
+        &dir.join("provenance.json"),
+        &provenance(model, study, command),
+    )
+}
+
+/// Version, command, date, seeds, swept parameters (for `magopt plot`), metrics.
+pub fn provenance<M: StudyModel>(model: &M, study: &Study<M>, command: &str) -> serde_json::Value {
+    serde_json::json!({
+        "magopt_version": VERSION,
+        "model": model.name(),
+        "study": study.name,
+        "command": command,
+        "date_utc": utc_now(),
+        "seeds": (0..study.replicates).map(|r| study.seed.wrapping_add(r as u64)).collect::<Vec<_>>(),
+        "metrics": study.metrics,
+        "swept": study.axes.iter().map(|a| serde_json::json!({
+            "name": a.spec.name, "column": a.spec.column(), "label": a.spec.label(), "log": a.log,
+        })).collect::<Vec<_>>(),
+        "series_label": model.series_labels().iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+    })
+}
+
+/// The current UTC time as ISO 8601 (civil-from-days; no time-zone database needed).
+pub fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}

@@ -1,0 +1,459 @@
+//! Study files (TOML, spec studies.md): model, base parameters with units, swept parameters
+//! (lists, linear or logarithmic ranges), replicates and master seed, metrics, and optionally
+//! free parameters with bounds for optimization. Unknown keys are errors.
+//!
+//! ```toml
+//! name = "tau-vs-field"
+//! model = "align"
+//! replicates = 4
+//! seed = 1
+//! metrics = ["alignment_time_s", "alignment_time_90_s"]
+//! [base]
+//! pressure = "0.5atm"
+//! [sweep]
+//! field = { log = ["5kOe", "100kOe", 8] }
+//! friction = [0.0, 0.2, 0.5]
+//! [optimize]                       # for `magopt optimize`
+//! parameters = { field = ["5kOe", "100kOe"] }
+//! metric = "alignment_time_s"
+//! goal = "minimize"
+//! ```
+
+use serde::Deserialize;
+
+use super::model::{ParamKind, ParamSpec, StudyModel, Value};
+use crate::{Error, Result};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawStudy {
+    name: Option<String>,
+    model: String,
+    replicates: Option<i64>,
+    seed: Option<i64>,
+    metrics: Option<Vec<String>>,
+    base: Option<toml::Table>,
+    sweep: Option<toml::Table>,
+    optimize: Option<RawOptimize>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawOptimize {
+    metric: String,
+    goal: Option<String>,
+    parameters: toml::Table,
+    scale: Option<String>,
+    scan_points: Option<i64>,
+    iterations: Option<i64>,
+    band: Option<f64>,
+}
+
+/// One swept parameter and its values (SI).
+#[derive(Debug, Clone)]
+pub struct Axis {
+    /// The parameter.
+    pub spec: &'static ParamSpec,
+    /// Its values in sweep order.
+    pub values: Vec<Value>,
+    /// Whether the values were given as a log range (plots use a log axis).
+    pub log: bool,
+}
+
+/// The `[optimize]` table.
+#[derive(Debug, Clone)]
+pub struct OptimizeSpec {
+    /// Metric to optimize.
+    pub metric: String,
+    /// Maximize instead of minimize.
+    pub maximize: bool,
+    /// Free parameters with SI bounds.
+    pub free: Vec<(&'static ParamSpec, f64, f64)>,
+    /// Search in ln x (all bounds > 0) instead of x.
+    pub log: bool,
+    /// Scan points of the 1D bracket search.
+    pub scan_points: usize,
+    /// Brent (1D) or Nelder–Mead (several parameters) iterations.
+    pub iterations: u64,
+    /// Near-optimal band fraction.
+    pub band: f64,
+}
+
+/// A parsed, validated study for model `M`.
+#[derive(Debug, Clone)]
+pub struct Study<M: StudyModel> {
+    /// Study name (file stem if absent).
+    pub name: String,
+    /// Replicate seeds per point: seed, seed + 1, …
+    pub replicates: usize,
+    /// Master seed.
+    pub seed: u64,
+    /// Metrics recorded in tables.
+    pub metrics: Vec<String>,
+    /// Base parameters (defaults with `[base]` applied).
+    pub base: M::Params,
+    /// `[base]` as parsed values, in canonical (sorted) order: part of every run id.
+    pub base_values: Vec<(String, Value)>,
+    /// Swept parameters.
+    pub axes: Vec<Axis>,
+    /// The optimization, if any.
+    pub optimize: Option<OptimizeSpec>,
+    /// The file's text (copied into results).
+    pub text: String,
+}
+
+/// One run of a study: a grid point and a replicate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSpec {
+    /// Position in the run list.
+    pub index: usize,
+    /// Identifier derived from model, base, point values and seed (FNV-1a, hex).
+    pub id: String,
+    /// Grid point index.
+    pub point: usize,
+    /// Replicate index.
+    pub replicate: usize,
+    /// Seed of this run.
+    pub seed: u64,
+    /// Values of the swept parameters at this point.
+    pub values: Vec<Value>,
+}
+
+/// The model a study file names (read before the model-specific parse).
+pub fn model_name(text: &str, origin: &str) -> Result<String> {
+    Ok(raw(text, origin)?.model)
+}
+
+fn raw(text: &str, origin: &str) -> Result<RawStudy> {
+    toml::from_str(text)
+        .map_err(|e| Error::input(format!("{origin}: {}", one_line(&e.to_string()))))
+}
+
+fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+impl<M: StudyModel> Study<M> {
+    /// Parses and validates a study file's text for model `M`; `origin` names it in errors.
+    pub fn parse(model: &M, text: &str, origin: &str) -> Result<Self> {
+        let at = |e: Error| Error::input(format!("{origin}: {e}"));
+        let raw = raw(text, origin)?;
+        if raw.model != model.name() {
+            return Err(at(Error::input(format!(
+                "model: '{}' is not '{}'",
+                raw.model,
+                model.name()
+            ))));
+        }
+        let replicates = positive("replicates", raw.replicates.unwrap_or(1)).map_err(at)?;
+        let seed = u64::try_from(raw.seed.unwrap_or(1)).map_err(|_| {
+            at(Error::input(format!(
+                "seed: {} is not allowed (need ≥ 0)",
+                raw.seed.unwrap_or(1)
+            )))
+        })?;
+        let metrics = metrics(model, raw.metrics).map_err(at)?;
+        let (base, base_values) = base(model, raw.base.unwrap_or_default()).map_err(at)?;
+        let axes = axes(model, raw.sweep.unwrap_or_default()).map_err(at)?;
+        let optimize = raw
+            .optimize
+            .map(|o| optimize(model, o))
+            .transpose()
+            .map_err(at)?;
+        let name = raw.name.unwrap_or_else(|| {
+            std::path::Path::new(origin)
+                .file_stem()
+                .map_or("study".into(), |s| s.to_string_lossy().into_owned())
+        });
+        let study = Self {
+            name,
+            replicates,
+            seed,
+            metrics,
+            base,
+            base_values,
+            axes,
+            optimize,
+            text: text.to_string(),
+        };
+        for point in study.points() {
+            study.params_at(model, &point).map_err(at)?;
+        }
+        Ok(study)
+    }
+
+    /// Every grid point (cartesian product of the axes, the last axis fastest).
+    pub fn points(&self) -> Vec<Vec<Value>> {
+        self.axes.iter().fold(vec![Vec::new()], |acc, axis| {
+            acc.iter()
+                .flat_map(|prefix| {
+                    axis.values
+                        .iter()
+                        .map(move |v| [prefix.clone(), vec![v.clone()]].concat())
+                })
+                .collect()
+        })
+    }
+
+    /// Parameters at a grid point (validated).
+    pub fn params_at(&self, model: &M, point: &[Value]) -> Result<M::Params> {
+        let mut params = self.base.clone();
+        for (axis, value) in self.axes.iter().zip(point) {
+            model.set(&mut params, axis.spec.name, value)?;
+        }
+        model.validate(&params)?;
+        Ok(params)
+    }
+
+    /// The run list: points × replicates, deterministic; replicate r has seed `seed + r` at
+    /// every point (common random numbers).
+    pub fn runs(&self, model: &M) -> Vec<RunSpec> {
+        let points = self.points();
+        let mut runs = Vec::with_capacity(points.len() * self.replicates);
+        for (p, values) in points.into_iter().enumerate() {
+            for r in 0..self.replicates {
+                let seed = self.seed.wrapping_add(r as u64);
+                let id = run_id(model.name(), &self.base_values, &self.axes, &values, seed);
+                runs.push(RunSpec {
+                    index: runs.len(),
+                    id,
+                    point: p,
+                    replicate: r,
+                    seed,
+                    values: values.clone(),
+                });
+            }
+        }
+        runs
+    }
+}
+
+/// FNV-1a over the canonical description of a run.
+pub fn run_id(
+    model: &str,
+    base: &[(String, Value)],
+    axes: &[Axis],
+    values: &[Value],
+    seed: u64,
+) -> String {
+    let mut text = format!("{model}|seed={seed}");
+    for (k, v) in base {
+        text += &format!("|{k}={}", v.canonical());
+    }
+    for (a, v) in axes.iter().zip(values) {
+        text += &format!("|{}={}", a.spec.name, v.canonical());
+    }
+    let hash = text.bytes().fold(0xcbf29ce484222325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100000001b3)
+    });
+    format!("{hash:016x}")
+}
+
+fn positive(key: &str, n: i64) -> Result<usize> {
+    if n >= 1 {
+        Ok(n as usize)
+    } else {
+        Err(Error::input(format!(
+            "{key}: {n} is not allowed (need ≥ 1)"
+        )))
+    }
+}
+
+fn metrics<M: StudyModel>(model: &M, wanted: Option<Vec<String>>) -> Result<Vec<String>> {
+    let known = model.metrics();
+    let Some(wanted) = wanted else {
+        return Ok(known.iter().map(|s| s.to_string()).collect());
+    };
+    for m in &wanted {
+        if !known.contains(&m.as_str()) {
+            return Err(Error::input(format!(
+                "metrics: unknown metric '{m}' (known: {})",
+                known.join(", ")
+            )));
+        }
+    }
+    Ok(wanted)
+}
+
+fn base<M: StudyModel>(model: &M, table: toml::Table) -> Result<(M::Params, Vec<(String, Value)>)> {
+    let mut params = model.defaults();
+    let mut values = Vec::new();
+    for (name, raw) in &table {
+        let value = model
+            .spec(name)
+            .and_then(|s| s.parse(raw))
+            .map_err(|e| Error::input(format!("base.{e}")))?;
+        model
+            .set(&mut params, name, &value)
+            .map_err(|e| Error::input(format!("base.{name}: {e}")))?;
+        values.push((name.clone(), value));
+    }
+    model
+        .validate(&params)
+        .map_err(|e| Error::input(format!("base: {e}")))?;
+    Ok((params, values))
+}
+
+fn axes<M: StudyModel>(model: &M, table: toml::Table) -> Result<Vec<Axis>> {
+    table
+        .iter()
+        .map(|(name, raw)| {
+            let spec = model
+                .spec(name)
+                .map_err(|e| Error::input(format!("sweep.{e}")))?;
+            axis(spec, raw).map_err(|e| Error::input(format!("sweep.{e}")))
+        })
+        .collect()
+}
+
+fn axis(spec: &'static ParamSpec, raw: &toml::Value) -> Result<Axis> {
+    let name = spec.name;
+    let (values, log) = match raw {
+        toml::Value::Array(items) => (items.iter().map(|v| spec.parse(v)).collect::<Result<Vec<_>>>()?, false),
+        toml::Value::Table(t) if t.len() == 1 && (t.contains_key("range") || t.contains_key("log")) => {
+            let log = t.contains_key("log");
+            let bounds = t.values().next().expect("one entry");
+            (range(spec, bounds, log)?, log)
+        }
+        other => {
+            return Err(Error::input(format!(
+                "{name}: {other} is not a sweep (use a list [a, b, …], {{ range = [lo, hi, n] }} or {{ log = [lo, hi, n] }})"
+            )))
+        }
+    };
+    if values.is_empty() {
+        return Err(Error::input(format!("{name}: empty list of values")));
+    }
+    Ok(Axis { spec, values, log })
+}
+
+fn range(spec: &'static ParamSpec, bounds: &toml::Value, log: bool) -> Result<Vec<Value>> {
+    let name = spec.name;
+    let parts = bounds.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
+        Error::input(format!(
+            "{name}: a range needs [low, high, count], got {bounds}"
+        ))
+    })?;
+    let number = |v: &toml::Value| match spec.parse(v)? {
+        Value::Number(x) => Ok(x),
+        Value::Text(t) => Err(Error::input(format!(
+            "{name}: '{t}' cannot be a range bound"
+        ))),
+    };
+    let (lo, hi) = (number(&parts[0])?, number(&parts[1])?);
+    let n = parts[2]
+        .as_integer()
+        .filter(|&n| (1..=100_000).contains(&n))
+        .ok_or_else(|| {
+            Error::input(format!(
+                "{name}: range count {} is not allowed (need a whole number in 1..=100000)",
+                parts[2]
+            ))
+        })? as usize;
+    if log && !(lo > 0.0 && hi > 0.0) {
+        return Err(Error::input(format!(
+            "{name}: a log range needs positive bounds (got {lo}, {hi} in SI)"
+        )));
+    }
+    let at = |k: usize| {
+        let t = if n == 1 {
+            0.0
+        } else {
+            k as f64 / (n - 1) as f64
+        };
+        let x = if log {
+            (lo.ln() + t * (hi.ln() - lo.ln())).exp()
+        } else {
+            lo + t * (hi - lo)
+        };
+        if matches!(spec.kind, ParamKind::Count) {
+            x.round()
+        } else {
+            x
+        }
+    };
+    let mut values: Vec<f64> = (0..n).map(at).collect();
+    values.dedup();
+    Ok(values.into_iter().map(Value::Number).collect())
+}
+
+fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> {
+    let at = |e: Error| Error::input(format!("optimize.{e}"));
+    if !model.metrics().contains(&raw.metric.as_str()) {
+        return Err(at(Error::input(format!(
+            "metric: unknown metric '{}' (known: {})",
+            raw.metric,
+            model.metrics().join(", ")
+        ))));
+    }
+    let maximize = match raw.goal.as_deref().unwrap_or("minimize") {
+        "minimize" => false,
+        "maximize" => true,
+        other => {
+            return Err(at(Error::input(format!(
+                "goal: '{other}' is not minimize or maximize"
+            ))))
+        }
+    };
+    let mut free = Vec::new();
+    for (name, bounds) in &raw.parameters {
+        let spec = model
+            .spec(name)
+            .map_err(|e| at(Error::input(format!("parameters.{e}"))))?;
+        let pair = bounds.as_array().filter(|a| a.len() == 2).ok_or_else(|| {
+            at(Error::input(format!(
+                "parameters.{name}: need [low, high], got {bounds}"
+            )))
+        })?;
+        let bound = |v| match spec.parse(v) {
+            Ok(Value::Number(x)) => Ok(x),
+            Ok(Value::Text(t)) => Err(at(Error::input(format!(
+                "parameters.{name}: '{t}' is not a number"
+            )))),
+            Err(e) => Err(at(Error::input(format!("parameters.{e}")))),
+        };
+        let (lo, hi) = (bound(&pair[0])?, bound(&pair[1])?);
+        if !(lo < hi) {
+            return Err(at(Error::input(format!(
+                "parameters.{name}: need low < high (got {lo}, {hi} in SI)"
+            ))));
+        }
+        free.push((spec, lo, hi));
+    }
+    if free.is_empty() {
+        return Err(at(Error::input(
+            "parameters: name at least one free parameter with [low, high]",
+        )));
+    }
+    let log = match raw.scale.as_deref().unwrap_or("log") {
+        "log" => true,
+        "linear" => false,
+        other => {
+            return Err(at(Error::input(format!(
+                "scale: '{other}' is not log or linear"
+            ))))
+        }
+    };
+    if log && free.iter().any(|(_, lo, _)| *lo <= 0.0) {
+        return Err(at(Error::input(
+            "scale: log needs positive bounds (use scale = \"linear\")",
+        )));
+    }
+    let band = raw.band.unwrap_or(0.02);
+    if !(band > 0.0 && band < 1.0) {
+        return Err(at(Error::input(format!(
+            "band: {band} is not allowed (need 0 < band < 1)"
+        ))));
+    }
+    Ok(OptimizeSpec {
+        metric: raw.metric,
+        maximize,
+        free,
+        log,
+        scan_points: positive("scan_points", raw.scan_points.unwrap_or(7))
+            .map_err(at)?
+            .max(3),
+        iterations: positive("iterations", raw.iterations.unwrap_or(8)).map_err(at)? as u64,
+        band,
+    })
+}

@@ -1,0 +1,183 @@
+//! The study runner: deterministic expansion and seeds, resume, shards + collect, and clear
+//! errors for malformed study files. Runs use the `align` ensemble model (milliseconds each).
+
+use magopt::materials::MaterialDb;
+use magopt::models::align::study::AlignModel;
+use magopt::output::table::{read_parquet, Table};
+use magopt::study::runner::{collect, sweep, Shard, SweepOptions};
+use magopt::study::spec::Study;
+use proptest::prelude::*;
+use std::path::{Path, PathBuf};
+
+const STUDY: &str = r#"
+name = "grid"
+model = "align"
+replicates = 2
+seed = 7
+metrics = ["alignment_time_s", "final_alignment"]
+[base]
+model = "ensemble"
+friction = 0.1
+[sweep]
+field = { log = ["10kOe", "80kOe", 4] }
+target = [0.9, 0.95]
+"#;
+
+fn model() -> AlignModel {
+    AlignModel::new(MaterialDb::builtin())
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("magopt-study-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn run(dir: &Path, resume: bool, shard: Option<Shard>) {
+    let m = model();
+    let study = Study::parse(&m, STUDY, "grid.toml").unwrap();
+    let options = SweepOptions {
+        out: dir.to_path_buf(),
+        resume,
+        shard,
+        command: "test".into(),
+    };
+    sweep(&m, &study, &options, |_| {}, &|| {}).unwrap();
+}
+
+/// A result table without the columns that legitimately differ between executions.
+fn table(dir: &Path, file: &str) -> Table {
+    let mut t = read_parquet(&dir.join(file)).unwrap();
+    t.columns.retain(|c| c.name != "wall_time_s");
+    t
+}
+
+fn assert_same_results(a: &Path, b: &Path) {
+    for file in ["runs.parquet", "series.parquet", "summary.parquet"] {
+        assert_eq!(table(a, file), table(b, file), "{file} differs");
+    }
+}
+
+#[test]
+fn expansion_and_seeds_are_deterministic() {
+    let m = model();
+    let a = Study::parse(&m, STUDY, "grid.toml").unwrap().runs(&m);
+    let b = Study::parse(&m, STUDY, "grid.toml").unwrap().runs(&m);
+    assert_eq!(a, b);
+    assert_eq!(a.len(), 4 * 2 * 2);
+    for run in &a {
+        assert_eq!(
+            run.seed,
+            7 + run.replicate as u64,
+            "common random numbers: seed + r at every point"
+        );
+    }
+    let ids: std::collections::HashSet<_> = a.iter().map(|r| r.id.clone()).collect();
+    assert_eq!(ids.len(), a.len(), "run ids are unique");
+    let changed = STUDY.replace("friction = 0.1", "friction = 0.2");
+    let c = Study::parse(&m, &changed, "grid.toml").unwrap().runs(&m);
+    assert!(
+        a.iter().zip(&c).all(|(x, y)| x.id != y.id),
+        "a different base gives different ids"
+    );
+}
+
+#[test]
+fn resumed_sweep_equals_an_uninterrupted_one() {
+    let (whole, resumed) = (temp_dir("whole"), temp_dir("resumed"));
+    run(&whole, false, None);
+    run(&resumed, false, None);
+    // Simulate a sweep killed part-way: half of the runs and every table are lost.
+    let mut saved: Vec<_> = std::fs::read_dir(resumed.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    saved.sort();
+    for path in saved.iter().step_by(2) {
+        std::fs::remove_file(path).unwrap();
+    }
+    for file in ["runs.parquet", "series.parquet", "summary.parquet"] {
+        std::fs::remove_file(resumed.join(file)).unwrap();
+    }
+    run(&resumed, true, None);
+    assert_same_results(&whole, &resumed);
+}
+
+#[test]
+fn sweep_refuses_to_overwrite_without_resume() {
+    let dir = temp_dir("again");
+    run(&dir, false, None);
+    let m = model();
+    let study = Study::parse(&m, STUDY, "grid.toml").unwrap();
+    let options = SweepOptions {
+        out: dir.clone(),
+        resume: false,
+        shard: None,
+        command: "test".into(),
+    };
+    let err = sweep(&m, &study, &options, |_| {}, &|| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("--resume"), "{err}");
+}
+
+#[test]
+fn shards_collected_equal_one_sweep() {
+    let whole = temp_dir("unsharded");
+    run(&whole, false, None);
+    let shards: Vec<PathBuf> = (0..3).map(|i| temp_dir(&format!("shard{i}"))).collect();
+    for (i, dir) in shards.iter().enumerate() {
+        run(dir, false, Some(Shard { index: i, count: 3 }));
+    }
+    let merged = temp_dir("merged");
+    let m = model();
+    let study = Study::parse(&m, STUDY, "grid.toml").unwrap();
+    let n = collect(&m, &study, &shards, &merged, "test").unwrap();
+    assert_eq!(n, 16);
+    assert_same_results(&whole, &merged);
+}
+
+#[test]
+fn malformed_study_files_get_errors_naming_the_key() {
+    let m = model();
+    let cases = [
+        ("model = \"align\"\ncolour = 3", "colour"),
+        ("model = \"align\"\n[base]\nfield = \"40kOhm\"", "kOhm"),
+        ("model = \"align\"\n[base]\nviscosity = 3", "viscosity"),
+        ("model = \"align\"\nreplicates = 0", "replicates"),
+        ("model = \"align\"\n[sweep]\nfield = { log = [\"0kOe\", \"10kOe\", 3] }", "field"),
+        ("model = \"align\"\n[sweep]\nfriction = { range = [0, 1] }", "friction"),
+        ("model = \"align\"\n[sweep]\nfriction = []", "friction"),
+        ("model = \"align\"\n[base]\ntarget = 1.5", "target"),
+        ("model = \"align\"\n[base]\nmodel = \"md\"", "model"),
+        ("model = \"bed\"", "bed"),
+        ("model = \"align\"\nmetrics = [\"speed\"]", "speed"),
+        ("model = \"align\"\n[optimize]\nmetric = \"alignment_time_s\"\nparameters = { field = [\"50kOe\", \"5kOe\"] }", "field"),
+        ("model = align", "grid.toml"),
+    ];
+    for (text, key) in cases {
+        let err = Study::parse(&m, text, "grid.toml").unwrap_err().to_string();
+        assert!(
+            err.contains(key),
+            "error for {text:?} should name {key}: {err}"
+        );
+        assert!(!err.contains('\n'), "one line: {err}");
+    }
+}
+
+proptest! {
+    #[test]
+    fn arbitrary_text_never_panics(text in "\\PC{0,200}") {
+        let m = model();
+        let _ = Study::parse(&m, &text, "fuzz.toml");
+    }
+
+    #[test]
+    fn mutated_study_files_never_panic(cut in 0usize..400, insert in "[\\[\\]{}=\",.a-z0-9 \n-]{0,12}") {
+        let m = model();
+        let at = cut.min(STUDY.len());
+        let at = (0..=at).rev().find(|&k| STUDY.is_char_boundary(k)).unwrap_or(0);
+        let text = format!("{}{}{}", &STUDY[..at], insert, &STUDY[at..]);
+        let _ = Study::parse(&m, &text, "fuzz.toml");
+    }
+}
