@@ -219,8 +219,11 @@ fn replicate_minimum(points: &[Point], r: usize, log: bool) -> Option<f64> {
     Some(from_u(vertex.clamp(x0, x2)))
 }
 
+/// A coordinate transform.
+type Transform = fn(f64) -> f64;
+
 /// The coordinate transform of a scale and its inverse.
-fn scale(log: bool) -> (fn(f64) -> f64, fn(f64) -> f64) {
+fn scale(log: bool) -> (Transform, Transform) {
     if log {
         (f64::ln, f64::exp)
     } else {

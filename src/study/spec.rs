@@ -275,7 +275,10 @@ fn metrics<M: StudyModel>(model: &M, wanted: Option<Vec<String>>) -> Result<Vec<
     Ok(wanted)
 }
 
-fn base<M: StudyModel>(model: &M, table: toml::Table) -> Result<(M::Params, Vec<(String, Value)>)> {
+/// Base parameters and their parsed values.
+type Base<P> = (P, Vec<(String, Value)>);
+
+fn base<M: StudyModel>(model: &M, table: toml::Table) -> Result<Base<M::Params>> {
     let mut params = model.defaults();
     let mut values = Vec::new();
     for (name, raw) in &table {
@@ -413,7 +416,7 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
             Err(e) => Err(at(Error::input(format!("parameters.{e}")))),
         };
         let (lo, hi) = (bound(&pair[0])?, bound(&pair[1])?);
-        if !(lo < hi) {
+        if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
             return Err(at(Error::input(format!(
                 "parameters.{name}: need low < high (got {lo}, {hi} in SI)"
             ))));

@@ -23,11 +23,14 @@ pub struct AlignSetup {
     pub wall_friction_set: bool,
 }
 
+/// A packing computed once and shared by every run of its seed (or the reason it failed).
+pub type SharedPacking = Arc<OnceLock<std::result::Result<Packing, String>>>;
+
 /// The `align` study model with its material database and packing cache.
 #[derive(Debug)]
 pub struct AlignModel {
     materials: MaterialDb,
-    packings: Mutex<HashMap<String, Arc<OnceLock<std::result::Result<Packing, String>>>>>,
+    packings: Mutex<HashMap<String, SharedPacking>>,
 }
 
 const PARAMETERS: &[ParamSpec] = &[
@@ -136,11 +139,7 @@ impl AlignModel {
     }
 
     /// The replicate's settled packing, computed once per (packing parameters, seed).
-    pub fn packing(
-        &self,
-        params: &AlignParams,
-        seed: u64,
-    ) -> Arc<OnceLock<std::result::Result<Packing, String>>> {
+    pub fn packing(&self, params: &AlignParams, seed: u64) -> SharedPacking {
         let packing_params = params.packing();
         let key = format!("{seed}|{packing_params:?}");
         let cell = self
