@@ -4,14 +4,14 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
-use super::count;
+use super::{command_line, count};
 use crate::materials::MaterialDb;
 use crate::models::align::report;
 use crate::models::align::study::{AlignModel, AlignSetup};
 use crate::models::align::{ModelKind, PressureMode};
 use crate::output::{atomic, plot};
 use crate::study::model::{StudyModel, Value};
-use crate::study::optimize::{optimize, StudyOptimum};
+use crate::study::optimize::optimize;
 use crate::study::records::{self, RunRecord};
 use crate::study::spec::{OptimizeSpec, Study};
 use crate::units::to_unit;
@@ -292,10 +292,6 @@ fn preset(
     }
 }
 
-fn command_line() -> String {
-    std::env::args().collect::<Vec<_>>().join(" ")
-}
-
 /// The field optimization: a preset of `magopt optimize` (one free parameter, the field).
 pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
     let model = AlignModel::new(db.clone());
@@ -346,15 +342,7 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
         Some(spec.clone()),
         "optimize-field",
     );
-    if let Some(threads) = args.threads {
-        if threads == 0 {
-            return Err(Error::input("--threads: 0 is not allowed (need ≥ 1)"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_global()
-            .ok();
-    }
+    super::threads(args.threads)?;
     let out = args.physics.prepare_out()?;
     let bar = progress_bar((spec.scan_points as u64 + spec.iterations) * replicates as u64);
     let result = optimize(&model, &study, out, &|| bar.inc(1));
@@ -364,7 +352,7 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
     let seeds: Vec<u64> = (0..replicates).map(|r| seed + r as u64).collect();
     let summary = report::optimum_json(&setup.params, setup.model, &optimum, &seeds);
     if let Some(dir) = out {
-        write_optimize_results(&model, &study, dir, &result)?;
+        records::write_optimize_results(&model, &study, dir, &result.records, &command_line())?;
         atomic::write_json_atomic(&dir.join("optimum.json"), &summary)?;
         let figure = report::tau_figure(&setup.params, setup.model, &optimum, args.band);
         plot::render_png(&dir.join("tau_vs_field.png"), &figure)?;
@@ -375,38 +363,6 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
         print_summary(&setup, replicates, args.band, &optimum);
     }
     Ok(())
-}
-
-/// evaluations.parquet (one row per field and replicate), series.parquet, study.toml,
-/// provenance.json.
-fn write_optimize_results(
-    model: &AlignModel,
-    study: &Study<AlignModel>,
-    dir: &Path,
-    result: &StudyOptimum,
-) -> Result<()> {
-    let optimize = study.optimize.as_ref().expect("optimization");
-    let cols = records::Columns {
-        axes: optimize
-            .free
-            .iter()
-            .map(|(s, ..)| (s.column(), *s))
-            .collect(),
-        metrics: study.metrics.clone(),
-    };
-    crate::output::table::write_parquet(
-        &dir.join("evaluations.parquet"),
-        &records::runs_table(model.name(), &cols, &result.records),
-    )?;
-    crate::output::table::write_parquet(
-        &dir.join("series.parquet"),
-        &records::series_table(&cols, &result.records),
-    )?;
-    atomic::write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
-    atomic::write_json_atomic(
-        &dir.join("provenance.json"),
-        &records::provenance(model, study, &command_line()),
-    )
 }
 
 fn progress_bar(total: u64) -> ProgressBar {

@@ -98,6 +98,25 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// The command line as typed (provenance).
+fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// Sizes the global thread pool (`--threads`); all cores by default.
+fn threads(n: Option<usize>) -> Result<()> {
+    if let Some(n) = n {
+        if n == 0 {
+            return Err(Error::input("--threads: 0 is not allowed (need ≥ 1)"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .ok();
+    }
+    Ok(())
+}
+
 /// A count ≥ 1, from text so that negative values get our message rather than a parse error.
 fn count(option: &str, text: &str) -> Result<usize> {
     match text.trim().parse::<i64>() {

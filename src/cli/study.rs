@@ -4,11 +4,12 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
+use super::{command_line, threads};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
 use crate::output::atomic;
 use crate::study::model::StudyModel;
-use crate::study::records::{self, Columns};
+use crate::study::records;
 use crate::study::runner::{self, Shard, SweepOptions};
 use crate::study::spec::{model_name, Study};
 use crate::units::to_unit;
@@ -90,19 +91,6 @@ fn with_model<T>(
     }
 }
 
-fn threads(n: Option<usize>) -> Result<()> {
-    if let Some(n) = n {
-        if n == 0 {
-            return Err(Error::input("--threads: 0 is not allowed (need ≥ 1)"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .ok();
-    }
-    Ok(())
-}
-
 fn bar() -> ProgressBar {
     let bar = ProgressBar::new(0);
     bar.set_style(
@@ -113,10 +101,6 @@ fn bar() -> ProgressBar {
     );
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     bar
-}
-
-fn command_line() -> String {
-    std::env::args().collect::<Vec<_>>().join(" ")
 }
 
 /// `magopt sweep`.
@@ -174,23 +158,7 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<()> {
         let result = crate::study::optimize::optimize(m, &study, Some(&out), &|| bar.inc(1));
         bar.finish_and_clear();
         let result = result?;
-        let cols = Columns {
-            axes: spec.free.iter().map(|(s, ..)| (s.column(), *s)).collect(),
-            metrics: study.metrics.clone(),
-        };
-        crate::output::table::write_parquet(
-            &out.join("evaluations.parquet"),
-            &records::runs_table(m.name(), &cols, &result.records),
-        )?;
-        crate::output::table::write_parquet(
-            &out.join("series.parquet"),
-            &records::series_table(&cols, &result.records),
-        )?;
-        atomic::write_atomic(&out.join("study.toml"), study.text.as_bytes())?;
-        atomic::write_json_atomic(
-            &out.join("provenance.json"),
-            &records::provenance(m, &study, &command_line()),
-        )?;
+        records::write_optimize_results(m, &study, &out, &result.records, &command_line())?;
         let summary = optimum_json(&study, &result);
         atomic::write_json_atomic(&out.join("optimum.json"), &summary)?;
         if args.json {

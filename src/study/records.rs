@@ -347,6 +347,32 @@ pub fn write_results<M: StudyModel>(
     )
 }
 
+/// Writes an optimization's runs: `evaluations.parquet` (one row per evaluated point and
+/// replicate), `series.parquet`, the study file and the provenance.
+pub fn write_optimize_results<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    dir: &Path,
+    records: &[RunRecord],
+    command: &str,
+) -> Result<()> {
+    let free = study.optimize.as_ref().map_or(&[][..], |o| &o.free[..]);
+    let cols = Columns {
+        axes: free.iter().map(|(s, ..)| (s.column(), *s)).collect(),
+        metrics: study.metrics.clone(),
+    };
+    write_parquet(
+        &dir.join("evaluations.parquet"),
+        &runs_table(model.name(), &cols, records),
+    )?;
+    write_parquet(&dir.join("series.parquet"), &series_table(&cols, records))?;
+    write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
+    write_json_atomic(
+        &dir.join("provenance.json"),
+        &provenance(model, study, command),
+    )
+}
+
 /// Version, command, date, seeds, swept parameters (for `magopt plot`), metrics.
 pub fn provenance<M: StudyModel>(model: &M, study: &Study<M>, command: &str) -> serde_json::Value {
     serde_json::json!({

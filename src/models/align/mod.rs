@@ -91,12 +91,29 @@ pub struct AlignOutcome {
 impl AlignOutcome {
     /// A run that failed before or during alignment.
     pub fn failed(reason: &str) -> AlignOutcome {
+        Self::without_dem(
+            Status::Failed(reason.to_string()),
+            None,
+            None,
+            Vec::new(),
+            0.0,
+        )
+    }
+
+    /// An outcome with no DEM diagnostics (ensemble runs and failures).
+    fn without_dem(
+        status: Status,
+        tau: Option<f64>,
+        tau90: Option<f64>,
+        series: Vec<(f64, f64)>,
+        wall_time_s: f64,
+    ) -> AlignOutcome {
         AlignOutcome {
-            status: Status::Failed(reason.to_string()),
-            alignment_time_s: None,
-            alignment_time_90_s: None,
-            final_alignment: f64::NAN,
-            series: Vec::new(),
+            status,
+            alignment_time_s: tau,
+            alignment_time_90_s: tau90,
+            final_alignment: series.last().map_or(f64::NAN, |s| s.1),
+            series,
             steps: 0,
             time_step_s: 0.0,
             packing_fraction: None,
@@ -107,7 +124,7 @@ impl AlignOutcome {
             solver_sweeps: 0,
             unconverged_solves: 0,
             sticking_fraction: None,
-            wall_time_s: 0.0,
+            wall_time_s,
         }
     }
 }
@@ -131,26 +148,10 @@ pub fn run_ensemble(params: &AlignParams) -> AlignOutcome {
             (t, model.alignment(t))
         })
         .collect();
-    AlignOutcome {
-        status: if tau.is_some() {
-            Status::Reached
-        } else {
-            Status::NotReached
-        },
-        alignment_time_s: tau,
-        alignment_time_90_s: tau90,
-        final_alignment: series.last().unwrap().1,
-        series,
-        steps: 0,
-        time_step_s: 0.0,
-        packing_fraction: None,
-        contacts: None,
-        bed_height_m: None,
-        applied_force_n: None,
-        nominal_force_n: None,
-        solver_sweeps: 0,
-        unconverged_solves: 0,
-        sticking_fraction: None,
-        wall_time_s: started.elapsed().as_secs_f64(),
-    }
+    let status = if tau.is_some() {
+        Status::Reached
+    } else {
+        Status::NotReached
+    };
+    AlignOutcome::without_dem(status, tau, tau90, series, started.elapsed().as_secs_f64())
 }

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Regenerates results/quick/: every quick study, its tables and its plots.
+# Usage (from the repository root): bash studies/run-quick.sh
+set -euo pipefail
+cargo build --release --locked
+bin=target/release/magopt
+for study in studies/quick/align-tau-*.toml; do
+  name=$(basename "$study" .toml)
+  rm -rf "results/quick/$name"
+  "$bin" sweep "$study" --out "results/quick/$name"
+  "$bin" plot "results/quick/$name"
+done
+rm -rf results/quick/align-optimize-field
+"$bin" optimize studies/quick/align-optimize-field.toml --out results/quick/align-optimize-field
