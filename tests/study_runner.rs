@@ -181,3 +181,30 @@ proptest! {
         let _ = Study::parse(&m, &text, "fuzz.toml");
     }
 }
+
+#[test]
+fn two_parameter_optimization_finds_the_known_optimum() {
+    // Ensemble: τ ∝ damping at fixed h, so the optimum is the lower damping bound, and the
+    // optimal field is the 1D optimum (h ≈ 1.56, about 28.8 kOe for Sr ferrite).
+    let text = r#"
+model = "align"
+[base]
+model = "ensemble"
+[optimize]
+parameters = { field = ["10kOe", "80kOe"], damping = [10.0, 40.0] }
+metric = "alignment_time_s"
+iterations = 60
+"#;
+    let m = model();
+    let study = Study::parse(&m, text, "nd.toml").unwrap();
+    let result = magopt::study::optimize::optimize(&m, &study, None, &|| {}).unwrap();
+    let spec = study.optimize.as_ref().unwrap();
+    let at = |name: &str| result.best[spec.free.iter().position(|(s, ..)| s.name == name).unwrap()];
+    let field_koe = at("field") / (1e6 / (4.0 * std::f64::consts::PI));
+    assert!(
+        (field_koe / 28.8 - 1.0).abs() < 0.1,
+        "field {field_koe} kOe"
+    );
+    assert!(at("damping") < 11.0, "damping {}", at("damping"));
+    assert!(result.one_dimensional.is_none());
+}
