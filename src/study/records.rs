@@ -334,17 +334,8 @@ pub fn write_results<M: StudyModel>(
     command: &str,
 ) -> Result<()> {
     let cols = columns(study);
-    write_parquet(
-        &dir.join("runs.parquet"),
-        &runs_table(model.name(), &cols, records),
-    )?;
-    write_parquet(&dir.join("series.parquet"), &series_table(&cols, records))?;
     write_parquet(&dir.join("summary.parquet"), &summary_table(&cols, records))?;
-    write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
-    write_json_atomic(
-        &dir.join("provenance.json"),
-        &provenance(model, study, command),
-    )
+    write_run_tables(model, study, dir, "runs.parquet", &cols, records, command)
 }
 
 /// Writes an optimization's runs: `evaluations.parquet` (one row per evaluated point and
@@ -361,11 +352,32 @@ pub fn write_optimize_results<M: StudyModel>(
         axes: free.iter().map(|(s, ..)| (s.column(), *s)).collect(),
         metrics: study.metrics.clone(),
     };
+    write_run_tables(
+        model,
+        study,
+        dir,
+        "evaluations.parquet",
+        &cols,
+        records,
+        command,
+    )
+}
+
+/// The per-run table (named `runs_file`), the series, the study file and the provenance.
+fn write_run_tables<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    dir: &Path,
+    runs_file: &str,
+    cols: &Columns,
+    records: &[RunRecord],
+    command: &str,
+) -> Result<()> {
     write_parquet(
-        &dir.join("evaluations.parquet"),
-        &runs_table(model.name(), &cols, records),
+        &dir.join(runs_file),
+        &runs_table(model.name(), cols, records),
     )?;
-    write_parquet(&dir.join("series.parquet"), &series_table(&cols, records))?;
+    write_parquet(&dir.join("series.parquet"), &series_table(cols, records))?;
     write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
     write_json_atomic(
         &dir.join("provenance.json"),
