@@ -75,7 +75,8 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
             let outcome = pool.install(|| dem::align(&params, &packing));
             let rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
             println!(
-                "{n:>8} {threads:>7} {settle:>11.2} {:>7} {:>8} {:>11.2} {rate:>16.3e} {:>13.1}",
+                "{n:>8} {threads:>7} {settle:>11.2} {:>12} {:>7} {:>8} {:>11.2} {rate:>16.3e} {:>13.1}",
+                packing.steps.iter().sum::<usize>(),
                 outcome.steps,
                 outcome.solver_sweeps,
                 outcome.wall_time_s,

@@ -8,6 +8,7 @@
 //! free of write conflicts, and exactly antisymmetric since e_ji = −e_ij bit for bit.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use crate::neighbor::NeighborList;
 
@@ -27,7 +28,7 @@ pub struct Container {
 }
 
 /// One (possible) contact of a particle.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Contact {
     /// Partner particle index, or `WALL`.
     pub partner: u32,
@@ -72,11 +73,54 @@ pub struct ContactLaw {
     pub friction: f64,
     /// μ between a particle and a wall.
     pub wall_friction: f64,
-    /// Pairs and walls closer than this gap are listed (they may touch within a step).
+    /// Pairs and walls closer than this gap are listed as contacts (they may touch within a
+    /// step); at most the neighbour-list skin.
     pub skin: f64,
 }
 
 impl ContactLaw {
+    /// Emits the contacts of particle i: listed neighbours and walls closer than the skin.
+    pub fn contacts_of(
+        &self,
+        i: usize,
+        positions: &[Vector3<f64>],
+        radii: &[f64],
+        neighbors: &NeighborList,
+        container: &Container,
+        mut emit: impl FnMut(Contact),
+    ) {
+        let (p, r) = (positions[i], radii[i]);
+        for &j in neighbors.of(i) {
+            let ju = j as usize;
+            let d = positions[ju] - p;
+            let dist = d.norm();
+            let overlap = r + radii[ju] - dist;
+            if overlap > -self.skin && dist > 0.0 {
+                emit(Contact {
+                    partner: j,
+                    normal: d / dist,
+                    overlap,
+                    hertz: self.hertz_prefactor(r, Some(radii[ju])),
+                    friction: self.friction,
+                    partner_radius: radii[ju],
+                });
+            }
+        }
+        for (normal, gap) in wall_gaps(p, container) {
+            let overlap = r - gap;
+            if overlap > -self.skin {
+                emit(Contact {
+                    partner: WALL,
+                    normal,
+                    overlap,
+                    hertz: self.hertz_prefactor(r, None),
+                    friction: self.wall_friction,
+                    partner_radius: 0.0,
+                });
+            }
+        }
+    }
+
     /// Prefactor (4/3) E*/E √R* of (A4) for reduced radii (wall: r_j = ∞).
     pub fn hertz_prefactor(&self, r_i: f64, r_j: Option<f64>) -> f64 {
         let r_star = match r_j {
@@ -114,42 +158,38 @@ impl ContactSet {
         container: &Container,
         law: &ContactLaw,
     ) {
+        // Two parallel passes (count, then fill each particle's own slice): the same lists
+        // in the same order as a serial loop, at any thread count.
+        let counts: Vec<usize> = (0..positions.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut count = 0;
+                law.contacts_of(i, positions, radii, neighbors, container, |_| count += 1);
+                count
+            })
+            .collect();
         self.offsets.clear();
-        self.contacts.clear();
         self.offsets.push(0);
-        for i in 0..positions.len() {
-            let (p, r) = (positions[i], radii[i]);
-            for &j in neighbors.of(i) {
-                let ju = j as usize;
-                let d = positions[ju] - p;
-                let dist = d.norm();
-                let overlap = r + radii[ju] - dist;
-                if overlap > -law.skin && dist > 0.0 {
-                    self.contacts.push(Contact {
-                        partner: j,
-                        normal: d / dist,
-                        overlap,
-                        hertz: law.hertz_prefactor(r, Some(radii[ju])),
-                        friction: law.friction,
-                        partner_radius: radii[ju],
-                    });
-                }
-            }
-            for (normal, gap) in wall_gaps(p, container) {
-                let overlap = r - gap;
-                if overlap > -law.skin {
-                    self.contacts.push(Contact {
-                        partner: WALL,
-                        normal,
-                        overlap,
-                        hertz: law.hertz_prefactor(r, None),
-                        friction: law.wall_friction,
-                        partner_radius: 0.0,
-                    });
-                }
-            }
-            self.offsets.push(self.contacts.len());
+        for c in &counts {
+            self.offsets.push(self.offsets.last().unwrap() + c);
         }
+        self.contacts.clear();
+        self.contacts
+            .resize(*self.offsets.last().unwrap(), Contact::default());
+        let mut slices = Vec::with_capacity(counts.len());
+        let mut rest = &mut self.contacts[..];
+        for &c in &counts {
+            let (mine, tail) = rest.split_at_mut(c);
+            slices.push(mine);
+            rest = tail;
+        }
+        slices.into_par_iter().enumerate().for_each(|(i, slot)| {
+            let mut k = 0;
+            law.contacts_of(i, positions, radii, neighbors, container, |c| {
+                slot[k] = c;
+                k += 1;
+            });
+        });
     }
 
     /// Largest overlap over all contacts (0 if none).

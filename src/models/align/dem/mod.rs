@@ -24,6 +24,9 @@ use velocity::{Motion, Schedule, SolveStats, SolverControl, Stage};
 
 /// Neighbour-list skin during alignment, R_av (particles hardly move).
 const SKIN: f64 = 0.2;
+/// Smallest gap (R_av) below which a pair enters the implicit velocity problem; the margin
+/// follows twice the largest displacement of the previous step (starting at the list skin).
+const MIN_CONTACT_MARGIN: f64 = 0.02;
 /// Samples of A(t) kept in the output series (the run itself checks A every step).
 const SERIES_POINTS: usize = 400;
 /// An overlap beyond this fraction of R_av means the contact mechanics broke down.
@@ -147,6 +150,15 @@ impl<'a> Run<'a> {
         let (x0, q0) = (self.position.clone(), self.orientation.clone());
         self.advance(&x0, &q0, &first, &first);
         let second = self.stage_velocities()?;
+        // Pairs closer than twice the last step's largest displacement enter the next velocity
+        // problems (at least MIN_CONTACT_MARGIN, at most the list skin); wider gaps cannot close.
+        let largest_move = first
+            .iter()
+            .chain(&second)
+            .map(|m| m.v.norm())
+            .fold(0.0, f64::max)
+            * self.dt;
+        self.law.skin = (2.0 * largest_move).clamp(MIN_CONTACT_MARGIN, SKIN);
         self.advance(&x0, &q0, &first, &second);
         Ok(())
     }

@@ -17,7 +17,7 @@ use rand::RngExt;
 use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
-use super::contacts::{ContactLaw, ContactSet, Container};
+use super::contacts::{ContactLaw, Container};
 use crate::models::align::params::PackingParams;
 use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
@@ -71,7 +71,8 @@ impl Packing {
             effective_modulus: 1.0 / (2.0 * (1.0 - params.poisson_ratio.powi(2))),
             friction: 0.0,
             wall_friction: 0.0,
-            skin: SKIN,
+            // explicit forces: only touching pairs matter
+            skin: 0.0,
         };
         let n = &params.numerics;
         packing.steps[0] = packing.flow(&law, Repulsion::Harmonic, 0.0, |s| {
@@ -98,23 +99,32 @@ impl Packing {
     ) -> Result<usize, String> {
         let n = self.radius.len();
         let mut list = NeighborList::new(SKIN);
-        let mut contacts = ContactSet::default();
-        let mut force = vec![(Vector3::zeros(), 0.0); n];
+        let mut force = vec![(Vector3::zeros(), 0.0, 0.0); n];
         let mut fire = Fire::new(n);
         for step in 0..MAX_STEPS {
             list.update(&self.position, &self.radius);
-            contacts.rebuild(&self.position, &self.radius, &list, &self.container, law);
+            // one parallel gather per step; no contact list is stored
+            let (position, radius, container) = (&self.position, &self.radius, &self.container);
             force.par_iter_mut().enumerate().for_each(|(i, slot)| {
-                *slot = repulsion.gather(contacts.of(i), down_force);
+                *slot = (Vector3::new(0.0, 0.0, -down_force), 0.0, 0.0);
+                law.contacts_of(i, position, radius, &list, container, |c| {
+                    let (f, k) = repulsion.force_and_stiffness(&c);
+                    slot.0 -= f * c.normal;
+                    slot.1 += k;
+                    slot.2 = f64::max(slot.2, c.overlap);
+                });
             });
-            let max_force = force.iter().map(|f| f.0.norm()).fold(0.0, f64::max);
-            let max_stiffness = force.iter().map(|f| f.1).fold(0.0, f64::max);
+            let max_force = force
+                .par_iter()
+                .map(|f| f.0.norm())
+                .reduce(|| 0.0, f64::max);
+            let max_stiffness = force.par_iter().map(|f| f.1).reduce(|| 0.0, f64::max);
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
             let status = FlowStatus {
                 steps: step,
-                max_overlap: contacts.max_overlap(),
+                max_overlap: force.par_iter().map(|f| f.2).reduce(|| 0.0, f64::max),
                 max_force,
             };
             if done(&status) {
@@ -127,6 +137,9 @@ impl Packing {
         ))
     }
 }
+
+/// Net force on a particle, its summed contact stiffness and its largest overlap.
+type Load = (Vector3<f64>, f64, f64);
 
 /// FIRE, the fast inertial relaxation engine (Bitzek et al., PRL 97, 170201, 2006), with unit
 /// masses and its standard constants. The step is capped by the stiffest particle
@@ -153,55 +166,74 @@ impl Fire {
     fn step(
         &mut self,
         position: &mut [Vector3<f64>],
-        force: &[(Vector3<f64>, f64)],
+        force: &[Load],
         max_stiffness: f64,
         max_force: f64,
     ) {
-        let power: f64 = self
-            .velocity
-            .iter()
-            .zip(force)
-            .map(|(v, f)| v.dot(&f.0))
-            .sum();
-        let v_norm = self
-            .velocity
-            .iter()
-            .map(|v| v.norm_squared())
-            .sum::<f64>()
-            .sqrt();
-        let f_norm = force.iter().map(|f| f.0.norm_squared()).sum::<f64>().sqrt();
+        let [power, v_squared, f_squared] = fire_sums(&self.velocity, force);
+        let (v_norm, f_norm) = (v_squared.sqrt(), f_squared.sqrt());
         let dt_max = (0.3 / max_stiffness.sqrt()).min(10.0);
         if power > 0.0 {
             let mix = self.alpha * v_norm / f_norm.max(f64::MIN_POSITIVE);
-            for (v, f) in self.velocity.iter_mut().zip(force) {
-                *v = (1.0 - self.alpha) * *v + mix * f.0;
-            }
+            let alpha = self.alpha;
+            self.velocity.par_iter_mut().zip(force).for_each(|(v, f)| {
+                *v = (1.0 - alpha) * *v + mix * f.0;
+            });
             self.downhill += 1;
             if self.downhill > 5 {
                 self.dt = (1.1 * self.dt).min(dt_max);
                 self.alpha *= 0.99;
             }
         } else {
-            self.velocity.iter_mut().for_each(|v| *v = Vector3::zeros());
+            self.velocity
+                .par_iter_mut()
+                .for_each(|v| *v = Vector3::zeros());
             self.dt *= 0.5;
             self.alpha = Self::ALPHA0;
             self.downhill = 0;
         }
+        let guess = self.dt;
         let speed = self
             .velocity
-            .iter()
+            .par_iter()
             .zip(force)
-            .map(|(v, f)| (v + self.dt * f.0).norm())
-            .fold(max_force * self.dt, f64::max);
+            .map(|(v, f)| (v + guess * f.0).norm())
+            .reduce(|| max_force * guess, f64::max);
         let dt = self
             .dt
             .min(dt_max)
             .min(MAX_MOVE / speed.max(f64::MIN_POSITIVE));
-        for ((x, v), f) in position.iter_mut().zip(&mut self.velocity).zip(force) {
-            *v += dt * f.0;
-            *x += dt * *v;
-        }
+        position
+            .par_iter_mut()
+            .zip(&mut self.velocity)
+            .zip(force)
+            .for_each(|((x, v), f)| {
+                *v += dt * f.0;
+                *x += dt * *v;
+            });
     }
+}
+
+/// Σ v·F, Σ |v|², Σ |F|², summed in fixed chunks (in parallel) and then in chunk order, so the
+/// result does not depend on the number of threads.
+fn fire_sums(velocity: &[Vector3<f64>], force: &[Load]) -> [f64; 3] {
+    const CHUNK: usize = 2048;
+    let partial: Vec<[f64; 3]> = velocity
+        .par_chunks(CHUNK)
+        .zip(force.par_chunks(CHUNK))
+        .map(|(vs, fs)| {
+            vs.iter().zip(fs).fold([0.0; 3], |acc, (v, f)| {
+                [
+                    acc[0] + v.dot(&f.0),
+                    acc[1] + v.norm_squared(),
+                    acc[2] + f.0.norm_squared(),
+                ]
+            })
+        })
+        .collect();
+    partial.iter().fold([0.0; 3], |acc, p| {
+        [acc[0] + p[0], acc[1] + p[1], acc[2] + p[2]]
+    })
 }
 
 /// What a flow stage's stop rule sees.
@@ -221,19 +253,6 @@ enum Repulsion {
 }
 
 impl Repulsion {
-    /// Net force (contacts plus `down_force` along −z) and summed contact stiffness of one
-    /// particle.
-    fn gather(self, contacts: &[super::contacts::Contact], down_force: f64) -> (Vector3<f64>, f64) {
-        let mut force = Vector3::new(0.0, 0.0, -down_force);
-        let mut stiffness = 0.0;
-        for c in contacts {
-            let (f, k) = self.force_and_stiffness(c);
-            force -= f * c.normal;
-            stiffness += k;
-        }
-        (force, stiffness)
-    }
-
     fn force_and_stiffness(self, c: &super::contacts::Contact) -> (f64, f64) {
         match self {
             Repulsion::Harmonic if c.overlap > 0.0 => (c.overlap, 1.0),
