@@ -44,10 +44,11 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
     let material = db.get("srfe12o19")?.clone();
     println!("align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, settled packing");
     println!(
-        "{:>8} {:>7} {:>11} {:>7} {:>8} {:>11} {:>16} {:>13}",
+        "{:>8} {:>7} {:>11} {:>12} {:>7} {:>8} {:>11} {:>16} {:>13}",
         "N",
         "threads",
         "settle (s)",
+        "settle steps",
         "steps",
         "sweeps",
         "align (s)",

@@ -88,11 +88,8 @@ impl<M: StudyModel> Evaluator<'_, M> {
                     None => None,
                 };
                 let record = match saved {
-                    Some(saved) => RunRecord {
-                        index,
-                        point,
-                        ..saved
-                    },
+                    // a saved run keeps its result; its position is this evaluation's
+                    Some(saved) => RunRecord { run, ..saved },
                     None => {
                         let record = RunRecord::new(&run, model.run(&params, seed));
                         if let Some(dir) = out {

@@ -14,21 +14,12 @@ use crate::{Error, Result};
 /// The magopt version recorded with every result.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-/// One finished run.
+/// One finished run: what was run and what it gave.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunRecord {
-    /// Position in the run list.
-    pub index: usize,
-    /// Run id.
-    pub id: String,
-    /// Grid point (or evaluation) index.
-    pub point: usize,
-    /// Replicate index.
-    pub replicate: usize,
-    /// Seed.
-    pub seed: u64,
-    /// Values of the swept (or free) parameters, SI.
-    pub values: Vec<Value>,
+    /// The run (index, id, point, replicate, seed, swept values).
+    #[serde(flatten)]
+    pub run: RunSpec,
     /// What the run gave.
     pub result: RunResult,
     /// magopt version that ran it.
@@ -39,12 +30,7 @@ impl RunRecord {
     /// A record for a run spec and its result.
     pub fn new(run: &RunSpec, result: RunResult) -> Self {
         Self {
-            index: run.index,
-            id: run.id.clone(),
-            point: run.point,
-            replicate: run.replicate,
-            seed: run.seed,
-            values: run.values.clone(),
+            run: run.clone(),
             result,
             magopt_version: VERSION.to_string(),
         }
@@ -61,8 +47,8 @@ pub fn save(dir: &Path, record: &RunRecord) -> Result<()> {
     let runs = dir.join("runs");
     std::fs::create_dir_all(&runs).map_err(|e| Error::io(runs, e))?;
     let value = serde_json::to_value(record)
-        .map_err(|e| Error::Output(format!("run {}: {e}", record.id)))?;
-    write_json_atomic(&record_path(dir, &record.id), &value)
+        .map_err(|e| Error::Output(format!("run {}: {e}", record.run.id)))?;
+    write_json_atomic(&record_path(dir, &record.run.id), &value)
 }
 
 /// Reads a run's record if it exists.
@@ -98,7 +84,10 @@ pub struct Columns {
 }
 
 fn axis_column(spec: &super::model::ParamSpec, records: &[RunRecord], k: usize) -> ColumnData {
-    let shown: Vec<Value> = records.iter().map(|r| spec.display(&r.values[k])).collect();
+    let shown: Vec<Value> = records
+        .iter()
+        .map(|r| spec.display(&r.run.values[k]))
+        .collect();
     if shown.iter().all(|v| matches!(v, Value::Number(_))) {
         C::F64(
             shown
@@ -133,21 +122,21 @@ pub fn runs_table(model: &str, columns: &Columns, records: &[RunRecord]) -> Tabl
     let mut t = Table::new()
         .with(
             "run_index",
-            C::U64(records.iter().map(|r| r.index as u64).collect()),
+            C::U64(records.iter().map(|r| r.run.index as u64).collect()),
         )
         .with(
             "run_id",
-            C::Str(records.iter().map(|r| r.id.clone()).collect()),
+            C::Str(records.iter().map(|r| r.run.id.clone()).collect()),
         )
         .with(
             "point",
-            C::U64(records.iter().map(|r| r.point as u64).collect()),
+            C::U64(records.iter().map(|r| r.run.point as u64).collect()),
         )
         .with(
             "replicate",
-            C::U64(records.iter().map(|r| r.replicate as u64).collect()),
+            C::U64(records.iter().map(|r| r.run.replicate as u64).collect()),
         )
-        .with("seed", C::U64(records.iter().map(|r| r.seed).collect()));
+        .with("seed", C::U64(records.iter().map(|r| r.run.seed).collect()));
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
         t.push(name, axis_column(spec, records, k));
     }
@@ -192,15 +181,15 @@ pub fn series_table(columns: &Columns, records: &[RunRecord]) -> Table {
     let mut t = Table::new()
         .with(
             "run_index",
-            C::U64(rows.iter().map(|(r, ..)| r.index as u64).collect()),
+            C::U64(rows.iter().map(|(r, ..)| r.run.index as u64).collect()),
         )
         .with(
             "point",
-            C::U64(rows.iter().map(|(r, ..)| r.point as u64).collect()),
+            C::U64(rows.iter().map(|(r, ..)| r.run.point as u64).collect()),
         )
         .with(
             "replicate",
-            C::U64(rows.iter().map(|(r, ..)| r.replicate as u64).collect()),
+            C::U64(rows.iter().map(|(r, ..)| r.run.replicate as u64).collect()),
         );
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
         t.push(name, axis_column(spec, &expanded, k));
@@ -220,13 +209,13 @@ pub fn series_table(columns: &Columns, records: &[RunRecord]) -> Table {
 /// Per point: swept parameters, then for each metric mean, std, count and the 95 % confidence
 /// half-width of the mean (Student t).
 pub fn summary_table(columns: &Columns, records: &[RunRecord]) -> Table {
-    let mut points: Vec<usize> = records.iter().map(|r| r.point).collect();
+    let mut points: Vec<usize> = records.iter().map(|r| r.run.point).collect();
     points.dedup();
     points.sort_unstable();
     points.dedup();
     let firsts: Vec<RunRecord> = points
         .iter()
-        .map(|p| records.iter().find(|r| r.point == *p).unwrap().clone())
+        .map(|p| records.iter().find(|r| r.run.point == *p).unwrap().clone())
         .collect();
     let mut t = Table::new().with("point", C::U64(points.iter().map(|&p| p as u64).collect()));
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
@@ -239,7 +228,7 @@ pub fn summary_table(columns: &Columns, records: &[RunRecord]) -> Table {
                 Stats::of(
                     records
                         .iter()
-                        .filter(|r| r.point == p)
+                        .filter(|r| r.run.point == p)
                         .filter_map(|r| r.result.metric(m)),
                 )
             })

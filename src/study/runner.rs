@@ -116,7 +116,7 @@ pub fn sweep<M: StudyModel>(
     for record in fresh {
         done.push(record?);
     }
-    done.sort_by_key(|r| r.index);
+    done.sort_by_key(|r| r.run.index);
     let unsuccessful = done.iter().filter(|r| r.result.status != "ok").count();
     records::write_results(model, study, &options.out, &done, &options.command)?;
     Ok(SweepReport {

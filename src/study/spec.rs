@@ -103,7 +103,7 @@ pub struct Study<M: StudyModel> {
 }
 
 /// One run of a study: a grid point and a replicate.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RunSpec {
     /// Position in the run list.
     pub index: usize,
