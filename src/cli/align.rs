@@ -190,7 +190,7 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
     let (setup, values) = args.physics.setup(&model, &args.field)?;
     let out = args.physics.prepare_out()?;
     let seed = args.physics.seed;
-    let study = preset(&setup, values, 1, seed, None, "align");
+    let study = preset(&model, &values, 1, seed, None, "align")?;
     let outcome = model.outcome(&setup, seed);
     if let Some(dir) = out {
         let run = study.runs(&model).remove(0);
@@ -242,54 +242,38 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
 }
 
 /// A study built from command-line options: no sweep, optionally one free parameter. Its text
-/// (saved as study.toml) lists the parameters so the run can be repeated with `magopt sweep`.
+/// is written first and parsed back, so the saved study.toml is exactly what ran and
+/// `magopt sweep`/`optimize` on it repeat the run.
 fn preset(
-    setup: &AlignSetup,
-    values: Vec<(String, Value)>,
+    model: &AlignModel,
+    values: &[(String, Value)],
     replicates: usize,
     seed: u64,
-    optimize: Option<OptimizeSpec>,
+    optimize: Option<&OptimizeSpec>,
     name: &str,
-) -> Study<AlignModel> {
-    let mut text = format!("# written by `{}`\nname = \"{name}\"\nmodel = \"align\"\nreplicates = {replicates}\nseed = {seed}\n\n[base]\n", command_line());
-    for (k, v) in &values {
-        if optimize
-            .as_ref()
-            .is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k))
-        {
-            continue;
-        }
-        match v {
-            Value::Number(x) => text += &format!("{k} = {x:?}\n"),
-            Value::Text(t) => text += &format!("{k} = {t:?}\n"),
-        }
+) -> Result<Study<AlignModel>> {
+    let is_free = |k: &str| optimize.is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k));
+    let mut text = format!(
+        "# written by `{}`\nname = \"{name}\"\nmodel = \"align\"\nreplicates = {replicates}\nseed = {seed}\n\n[base]\n",
+        command_line()
+    );
+    for (k, v) in values.iter().filter(|(k, _)| !is_free(k)) {
+        text += &format!("{k} = {}\n", model.spec(k)?.toml_literal(v));
     }
-    if let Some(o) = &optimize {
+    if let Some(o) = optimize {
         let (spec, lo, hi) = o.free[0];
         text += &format!(
-            "\n[optimize]\nparameters = {{ {} = [{lo:?}, {hi:?}] }}\nmetric = {:?}\nscan_points = {}\niterations = {}\nband = {}\n",
-            spec.name, o.metric, o.scan_points, o.iterations, o.band
+            "\n[optimize]\nparameters = {{ {} = [{}, {}] }}\nmetric = {:?}\nscan_points = {}\niterations = {}\nband = {}\n",
+            spec.name,
+            spec.toml_literal(&Value::Number(lo)),
+            spec.toml_literal(&Value::Number(hi)),
+            o.metric,
+            o.scan_points,
+            o.iterations,
+            o.band
         );
     }
-    let base_values = values
-        .into_iter()
-        .filter(|(k, _)| {
-            !optimize
-                .as_ref()
-                .is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k))
-        })
-        .collect();
-    Study {
-        name: name.to_string(),
-        replicates,
-        seed,
-        metrics: AlignModel::metric_names(),
-        base: setup.clone(),
-        base_values,
-        axes: Vec::new(),
-        optimize,
-        text,
-    }
+    Study::parse(model, &text, name)
 }
 
 /// The field optimization: a preset of `magopt optimize` (one free parameter, the field).
@@ -335,13 +319,13 @@ pub fn run_optimize(db: &MaterialDb, args: &OptimizeArgs) -> Result<()> {
     };
     let seed = args.physics.seed;
     let study = preset(
-        &setup,
-        values,
+        &model,
+        &values,
         replicates,
         seed,
-        Some(spec.clone()),
+        Some(&spec),
         "optimize-field",
-    );
+    )?;
     super::threads(args.threads)?;
     let out = args.physics.prepare_out()?;
     let bar = progress_bar((spec.scan_points as u64 + spec.iterations) * replicates as u64);

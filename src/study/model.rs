@@ -106,6 +106,19 @@ impl ParamSpec {
         }
     }
 
+    /// A TOML literal that parses back to exactly `value` (quantities carry their SI unit,
+    /// since a bare number means the display unit).
+    pub fn toml_literal(&self, value: &Value) -> String {
+        match (self.kind, value) {
+            (ParamKind::Quantity { dim, .. }, Value::Number(x)) => {
+                format!("\"{x:?} {}\"", si_unit(dim))
+            }
+            (ParamKind::Count, Value::Number(x)) => format!("{}", *x as u64),
+            (_, Value::Number(x)) => format!("{x:?}"),
+            (_, Value::Text(t)) => format!("{t:?}"),
+        }
+    }
+
     /// A value in display units (numbers) or as text.
     pub fn display(&self, value: &Value) -> Value {
         match (self.kind, value) {
@@ -114,6 +127,19 @@ impl ParamSpec {
             }
             (_, v) => v.clone(),
         }
+    }
+}
+
+/// The SI unit symbol of a dimension (as the unit parser spells it).
+fn si_unit(dim: Dimension) -> &'static str {
+    match dim {
+        Dimension::MagneticField | Dimension::Magnetization => "A/m",
+        Dimension::EnergyDensity => "J/m3",
+        Dimension::Pressure => "Pa",
+        Dimension::Density => "kg/m3",
+        Dimension::Length => "m",
+        Dimension::Time => "s",
+        Dimension::Velocity => "m/s",
     }
 }
 
@@ -200,5 +226,62 @@ pub trait StudyModel: Sync {
     fn set_from(&self, params: &mut Self::Params, name: &str, value: &toml::Value) -> Result<()> {
         let parsed = self.spec(name)?.parse(value)?;
         self.set(params, name, &parsed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_literals_parse_back_exactly() {
+        let specs = [
+            ParamSpec {
+                name: "field",
+                kind: ParamKind::Quantity {
+                    dim: Dimension::MagneticField,
+                    unit: "kOe",
+                },
+            },
+            ParamSpec {
+                name: "pressure",
+                kind: ParamKind::Quantity {
+                    dim: Dimension::Pressure,
+                    unit: "atm",
+                },
+            },
+            ParamSpec {
+                name: "diameter",
+                kind: ParamKind::Quantity {
+                    dim: Dimension::Length,
+                    unit: "um",
+                },
+            },
+            ParamSpec {
+                name: "particles",
+                kind: ParamKind::Count,
+            },
+            ParamSpec {
+                name: "friction",
+                kind: ParamKind::Number,
+            },
+            ParamSpec {
+                name: "material",
+                kind: ParamKind::Name,
+            },
+        ];
+        let values = [
+            Value::Number(3.183098861837907e6),
+            Value::Number(50662.5),
+            Value::Number(1.1e-6),
+            Value::Number(1000.0),
+            Value::Number(0.1 + 0.2),
+            Value::Text("sr\"fe".into()),
+        ];
+        for (spec, value) in specs.iter().zip(&values) {
+            let literal = spec.toml_literal(value);
+            let parsed: toml::Table = toml::from_str(&format!("x = {literal}")).unwrap();
+            assert_eq!(&spec.parse(&parsed["x"]).unwrap(), value, "{literal}");
+        }
     }
 }
