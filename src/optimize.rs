@@ -13,6 +13,8 @@ use argmin::core::{CostFunction, Executor};
 use argmin::solver::brent::BrentOpt;
 use std::cell::RefCell;
 
+use crate::numerics::stats::Stats;
+
 /// One evaluated point: the objective of each replicate (None: not available there, e.g. the
 /// target was not reached or the run failed).
 #[derive(Debug, Clone, serde::Serialize)]
@@ -24,22 +26,23 @@ pub struct Point {
 }
 
 impl Point {
+    /// Statistics over the replicates with a value.
+    fn stats(&self) -> Stats {
+        Stats::of(self.values.iter().flatten().copied())
+    }
+
     /// Mean over replicates with a value (NaN if none).
     pub fn mean(&self) -> f64 {
-        let v: Vec<f64> = self.values.iter().flatten().copied().collect();
-        v.iter().sum::<f64>() / v.len() as f64
+        self.stats().mean
     }
 
     /// Sample standard deviation over replicates with a value (0 for one, NaN for none).
     pub fn std(&self) -> f64 {
-        let v: Vec<f64> = self.values.iter().flatten().copied().collect();
-        match v.len() {
-            0 => f64::NAN,
-            1 => 0.0,
-            n => {
-                let m = v.iter().sum::<f64>() / n as f64;
-                (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-            }
+        let s = self.stats();
+        if s.count == 1 {
+            0.0
+        } else {
+            s.std
         }
     }
 

@@ -2,3 +2,4 @@
 
 pub mod quadrature;
 pub mod roots;
+pub mod stats;

@@ -58,7 +58,8 @@ impl<M: StudyModel> Evaluator<'_, M> {
             .collect()
     }
 
-    /// Per-replicate metric values at x (signed so that smaller is better).
+    /// Per-replicate metric values at x, signed so that smaller is better (the stored
+    /// evaluations keep the plain values).
     fn evaluate(&self, x: &[f64]) -> Result<Vec<Option<f64>>> {
         let mut params = self.study.base.clone();
         let values: Vec<Value> = x.iter().map(|&v| Value::Number(v)).collect();
@@ -103,10 +104,9 @@ impl<M: StudyModel> Evaluator<'_, M> {
             })
             .collect();
         let fresh = fresh.into_iter().collect::<Result<Vec<_>>>()?;
-        let sign = if self.spec.maximize { -1.0 } else { 1.0 };
         let metric: Vec<Option<f64>> = fresh
             .iter()
-            .map(|r| r.result.metric(&self.spec.metric).map(|v| sign * v))
+            .map(|r| r.result.metric(&self.spec.metric))
             .collect();
         self.records.borrow_mut().extend(fresh);
         self.evaluations.borrow_mut().push((
@@ -116,7 +116,8 @@ impl<M: StudyModel> Evaluator<'_, M> {
                 values: metric.clone(),
             },
         ));
-        Ok(metric)
+        let sign = if self.spec.maximize { -1.0 } else { 1.0 };
+        Ok(metric.iter().map(|v| v.map(|v| sign * v)).collect())
     }
 }
 
@@ -172,20 +173,7 @@ pub fn optimize<M: StudyModel>(
         return Err(e);
     }
     let sign = if spec.maximize { -1.0 } else { 1.0 };
-    let evaluations: Vec<(Vec<f64>, Point)> = evaluator
-        .evaluations
-        .into_inner()
-        .into_iter()
-        .map(|(x, p)| {
-            (
-                x,
-                Point {
-                    values: p.values.iter().map(|v| v.map(|v| sign * v)).collect(),
-                    ..p
-                },
-            )
-        })
-        .collect();
+    let evaluations = evaluator.evaluations.into_inner();
     let score = |p: &Point| {
         if p.complete() {
             sign * p.mean()

@@ -41,6 +41,14 @@ pub fn align(params: &AlignParams, packing: &Packing) -> AlignOutcome {
     outcome
 }
 
+/// Positions, orientations and predictor velocities at the start of a Heun step.
+#[derive(Default)]
+struct StepStart {
+    position: Vec<Vector3<f64>>,
+    orientation: Vec<UnitQuaternion<f64>>,
+    motion: Vec<Motion>,
+}
+
 /// The evolving state and fixed data of one alignment run, in reduced units.
 struct Run<'a> {
     params: &'a AlignParams,
@@ -48,6 +56,8 @@ struct Run<'a> {
     position: Vec<Vector3<f64>>,
     orientation: Vec<UnitQuaternion<f64>>,
     motion: Vec<Motion>,
+    /// State and predictor velocities at the start of the current step.
+    start: StepStart,
     list: NeighborList,
     schedule: Schedule,
     contacts: ContactSet,
@@ -93,6 +103,7 @@ impl<'a> Run<'a> {
             position: packing.position.clone(),
             orientation: packing.orientation.clone(),
             motion: vec![Motion::default(); n],
+            start: StepStart::default(),
             list: NeighborList::new(SKIN),
             schedule: Schedule::default(),
             contacts: ContactSet::default(),
@@ -146,43 +157,45 @@ impl<'a> Run<'a> {
 
     /// One Heun step: predictor velocities at the current state, corrector at the predicted one.
     fn heun_step(&mut self) -> Result<(), String> {
-        let first = self.stage_velocities()?;
-        let (x0, q0) = (self.position.clone(), self.orientation.clone());
-        self.advance(&x0, &q0, &first, &first);
-        let second = self.stage_velocities()?;
+        self.stage_velocities()?;
+        // keep the step's start (buffers reused: no allocation per step)
+        self.start.position.clone_from(&self.position);
+        self.start.orientation.clone_from(&self.orientation);
+        self.start.motion.clone_from(&self.motion);
+        self.advance(false);
+        self.stage_velocities()?;
         // Pairs closer than twice the last step's largest displacement enter the next velocity
         // problems (at least MIN_CONTACT_MARGIN, at most the list skin); wider gaps cannot close.
-        let largest_move = first
+        let largest_move = self
+            .start
+            .motion
             .iter()
-            .chain(&second)
+            .chain(&self.motion)
             .map(|m| m.v.norm())
             .fold(0.0, f64::max)
             * self.dt;
         self.law.skin = (2.0 * largest_move).clamp(MIN_CONTACT_MARGIN, SKIN);
-        self.advance(&x0, &q0, &first, &second);
+        self.advance(true);
         Ok(())
     }
 
-    /// Sets the state to (x0, q0) advanced by dt with the mean of two velocity fields.
-    fn advance(
-        &mut self,
-        x0: &[Vector3<f64>],
-        q0: &[UnitQuaternion<f64>],
-        a: &[Motion],
-        b: &[Motion],
-    ) {
+    /// Sets the state to the step's start advanced by dt with the predictor velocities, or
+    /// (`corrected`) with the mean of predictor and current (corrector) velocities.
+    fn advance(&mut self, corrected: bool) {
         let dt = self.dt;
-        for i in 0..x0.len() {
-            let v = 0.5 * (a[i].v + b[i].v);
-            let w = 0.5 * (a[i].w + b[i].w);
-            self.position[i] = x0[i] + dt * v;
-            let q = UnitQuaternion::from_scaled_axis(dt * w) * q0[i];
+        let start = &self.start;
+        for i in 0..start.position.len() {
+            let a = start.motion[i];
+            let b = if corrected { self.motion[i] } else { a };
+            let (v, w) = (0.5 * (a.v + b.v), 0.5 * (a.w + b.w));
+            self.position[i] = start.position[i] + dt * v;
+            let q = UnitQuaternion::from_scaled_axis(dt * w) * start.orientation[i];
             self.orientation[i] = UnitQuaternion::new_normalize(q.into_inner());
         }
     }
 
     /// Solves the velocity problem at the current state (warm-started).
-    fn stage_velocities(&mut self) -> Result<Vec<Motion>, String> {
+    fn stage_velocities(&mut self) -> Result<(), String> {
         if self.list.update(&self.position, &self.packing.radius) {
             self.update_external_forces();
             let r_max = self.packing.radius.iter().cloned().fold(0.0, f64::max);
@@ -227,7 +240,7 @@ impl<'a> Run<'a> {
         {
             return Err("non-finite velocity (numerical blow-up)".into());
         }
-        Ok(self.motion.clone())
+        Ok(())
     }
 
     /// Pressure forces on the loaded particles (spec: exposed-layer or source-layer rule) and
