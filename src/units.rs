@@ -20,6 +20,15 @@
 //! | length | nm, um (also µm, μm), mm, cm, m |
 //! | time | s, ms, us (also µs, μs), min, h |
 //! | velocity | m/s, mm/s, um/s (also µm/s, μm/s) |
+//! | acceleration | m/s2 |
+//! | mass | mg, g, kg |
+//! | energy | J, kJ, MJ |
+//! | electric field | V/m, kV/m, MV/m |
+//! | charge per mass | C/kg, mC/kg, uC/kg |
+//! | dynamic viscosity | Pa*s, mPa*s |
+//!
+//! A magnetic flux density B is entered as a field in tesla (`10 T` means μ0·H = 10 T) and
+//! recovered as μ0·H.
 
 use std::f64::consts::PI;
 
@@ -48,11 +57,23 @@ pub enum Dimension {
     Time,
     /// Velocity (SI: m/s).
     Velocity,
+    /// Acceleration (SI: m/s²).
+    Acceleration,
+    /// Mass (SI: kg).
+    Mass,
+    /// Energy (SI: J).
+    Energy,
+    /// Electric field (SI: V/m).
+    ElectricField,
+    /// Charge per unit mass (SI: C/kg).
+    ChargePerMass,
+    /// Dynamic viscosity (SI: Pa·s).
+    Viscosity,
 }
 
 /// Every dimension, for tests.
 #[cfg(test)]
-const ALL_DIMENSIONS: [Dimension; 8] = [
+const ALL_DIMENSIONS: [Dimension; 14] = [
     Dimension::MagneticField,
     Dimension::Magnetization,
     Dimension::EnergyDensity,
@@ -61,6 +82,12 @@ const ALL_DIMENSIONS: [Dimension; 8] = [
     Dimension::Length,
     Dimension::Time,
     Dimension::Velocity,
+    Dimension::Acceleration,
+    Dimension::Mass,
+    Dimension::Energy,
+    Dimension::ElectricField,
+    Dimension::ChargePerMass,
+    Dimension::Viscosity,
 ];
 
 impl Dimension {
@@ -75,6 +102,12 @@ impl Dimension {
             Dimension::Length => "length",
             Dimension::Time => "time",
             Dimension::Velocity => "velocity",
+            Dimension::Acceleration => "acceleration",
+            Dimension::Mass => "mass",
+            Dimension::Energy => "energy",
+            Dimension::ElectricField => "electric field",
+            Dimension::ChargePerMass => "charge per mass",
+            Dimension::Viscosity => "dynamic viscosity",
         }
     }
 
@@ -90,6 +123,12 @@ impl Dimension {
             Dimension::Length => &["nm", "um", "mm", "cm", "m"],
             Dimension::Time => &["s", "ms", "us", "min", "h"],
             Dimension::Velocity => &["m/s", "mm/s", "um/s"],
+            Dimension::Acceleration => &["m/s2"],
+            Dimension::Mass => &["mg", "g", "kg"],
+            Dimension::Energy => &["J", "kJ", "MJ"],
+            Dimension::ElectricField => &["V/m", "kV/m", "MV/m"],
+            Dimension::ChargePerMass => &["C/kg", "mC/kg", "uC/kg"],
+            Dimension::Viscosity => &["Pa*s", "mPa*s"],
         }
     }
 
@@ -158,6 +197,26 @@ fn factor(unit: &str) -> Option<f64> {
         "m/s" => 1.0,
         "mm/s" => 1.0e-3,
         "um/s" => 1.0e-6,
+        "m/s2" => 1.0,
+        // mass
+        "mg" => 1.0e-6,
+        "g" => 1.0e-3,
+        "kg" => 1.0,
+        // energy
+        "J" => 1.0,
+        "kJ" => 1.0e3,
+        "MJ" => 1.0e6,
+        // electric field
+        "V/m" => 1.0,
+        "kV/m" => 1.0e3,
+        "MV/m" => 1.0e6,
+        // charge per mass
+        "C/kg" => 1.0,
+        "mC/kg" => 1.0e-3,
+        "uC/kg" => 1.0e-6,
+        // dynamic viscosity
+        "Pa*s" => 1.0,
+        "mPa*s" => 1.0e-3,
         _ => return None,
     };
     Some(f)
@@ -312,6 +371,21 @@ mod tests {
             ("m/s", 1.0),
             ("mm/s", 1.0e-3),
             ("um/s", 1.0e-6),
+            ("m/s2", 1.0),
+            ("mg", 1.0e-6),
+            ("g", 1.0e-3),
+            ("kg", 1.0),
+            ("J", 1.0),
+            ("kJ", 1.0e3),
+            ("MJ", 1.0e6),
+            ("V/m", 1.0),
+            ("kV/m", 1.0e3),
+            ("MV/m", 1.0e6),
+            ("C/kg", 1.0),
+            ("mC/kg", 1.0e-3),
+            ("uC/kg", 1.0e-6),
+            ("Pa*s", 1.0),
+            ("mPa*s", 1.0e-3),
         ];
         for &(unit, f) in expected {
             assert!(close(si_per_unit(unit), f, 1e-15), "{unit}");
@@ -440,7 +514,7 @@ mod tests {
 
     proptest! {
         #[test]
-        fn parser_never_panics(s in any::<String>(), idx in 0usize..8) {
+        fn parser_never_panics(s in any::<String>(), idx in 0usize..ALL_DIMENSIONS.len()) {
             let dim = ALL_DIMENSIONS[idx];
             let _ = parse_quantity(&s, dim, dim.units()[0]);
         }

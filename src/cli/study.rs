@@ -76,20 +76,26 @@ fn read_study(path: &Path) -> Result<(String, String)> {
     Ok((text, model))
 }
 
-/// Dispatches on the study's model (the only place that lists the models).
-fn with_model<T>(
-    db: MaterialDb,
-    model: &str,
-    origin: &str,
-    f: impl FnOnce(&AlignModel) -> Result<T>,
-) -> Result<T> {
-    match model {
-        "align" => f(&AlignModel::new(db)),
-        other => Err(Error::input(format!(
-            "{origin}: model: '{other}' is not available (available: align)"
-        ))),
-    }
+/// Dispatches on the study's model (the only place that lists the models): binds `$m` to the
+/// model and evaluates `$body`, which is generic over [`StudyModel`].
+macro_rules! with_model {
+    ($db:expr, $model:expr, $origin:expr, |$m:ident| $body:expr) => {
+        match $model {
+            "align" => {
+                let $m = &AlignModel::new($db);
+                $body
+            }
+            other => Err(Error::input(format!(
+                "{}: model: '{other}' is not available (available: {})",
+                $origin,
+                MODELS.join(", ")
+            ))),
+        }
+    };
 }
+
+/// The models a study file may name.
+const MODELS: &[&str] = &["align"];
 
 fn bar() -> ProgressBar {
     let bar = ProgressBar::new(0);
@@ -108,7 +114,7 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<()> {
     threads(args.threads)?;
     let (text, model) = read_study(&args.study)?;
     let origin = args.study.display().to_string();
-    with_model(db, &model, &origin, |m| {
+    with_model!(db, model.as_str(), origin, |m| {
         let study = Study::parse(m, &text, &origin)?;
         let out = args
             .out
@@ -143,7 +149,7 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<()> {
     threads(args.threads)?;
     let (text, model) = read_study(&args.study)?;
     let origin = args.study.display().to_string();
-    with_model(db, &model, &origin, |m| {
+    with_model!(db, model.as_str(), origin, |m| {
         let study = Study::parse(m, &text, &origin)?;
         let spec = study
             .optimize
@@ -273,7 +279,7 @@ pub fn collect(db: MaterialDb, args: &CollectArgs) -> Result<()> {
     }
     let origin = first.join("study.toml").display().to_string();
     let model = model_name(&text, &origin)?;
-    with_model(db, &model, &origin, |m| {
+    with_model!(db, model.as_str(), origin, |m| {
         let study = Study::parse(m, &text, &origin)?;
         let out = args.out.clone().unwrap_or_else(|| first.clone());
         let n = runner::collect(m, &study, &args.dirs, &out, &command_line())?;

@@ -92,7 +92,11 @@ impl ParamSpec {
     pub fn column(&self) -> String {
         match self.kind {
             ParamKind::Quantity { unit, .. } => {
-                format!("{}_{}", self.name, unit.replace('/', "_per_"))
+                format!(
+                    "{}_{}",
+                    self.name,
+                    unit.replace('/', "_per_").replace('*', "_")
+                )
             }
             _ => self.name.to_string(),
         }
@@ -140,6 +144,12 @@ fn si_unit(dim: Dimension) -> &'static str {
         Dimension::Length => "m",
         Dimension::Time => "s",
         Dimension::Velocity => "m/s",
+        Dimension::Acceleration => "m/s2",
+        Dimension::Mass => "kg",
+        Dimension::Energy => "J",
+        Dimension::ElectricField => "V/m",
+        Dimension::ChargePerMass => "C/kg",
+        Dimension::Viscosity => "Pa*s",
     }
 }
 
