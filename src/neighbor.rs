@@ -1,25 +1,32 @@
-//! Neighbour search: a cell grid feeding a Verlet list (all pairs closer than R_i + R_j + skin),
-//! rebuilt when some particle has moved more than half the skin since the last build, so no
-//! contact is ever missed. Building is O(N); no O(N²) loop exists outside tests.
+//! Neighbour search in D dimensions (3 by default): a cell grid feeding a Verlet list (all
+//! pairs closer than R_i + R_j + skin), rebuilt when some particle has moved more than half the
+//! skin since the last build, so no pair inside R_i + R_j is ever missed. Building is O(N); no
+//! O(N²) loop exists outside tests.
+//!
+//! A fixed cut-off r_c with list radius r_v (the usual MD Verlet list) is the special case
+//! R_i = r_c/2, skin = r_v − r_c; a plain cell list is a list rebuilt every step with skin 0.
 
-use nalgebra::Vector3;
+use nalgebra::SVector;
 
 /// Full (both directions) Verlet neighbour list in compressed-row form.
-#[derive(Debug, Clone, Default)]
-pub struct NeighborList {
+#[derive(Debug, Clone)]
+pub struct NeighborList<const D: usize = 3> {
     offsets: Vec<usize>,
     neighbors: Vec<u32>,
-    reference: Vec<Vector3<f64>>,
+    reference: Vec<SVector<f64, D>>,
     skin: f64,
     builds: usize,
 }
 
-impl NeighborList {
+impl<const D: usize> NeighborList<D> {
     /// An empty list with the given skin (same length unit as the positions).
     pub fn new(skin: f64) -> Self {
         Self {
+            offsets: Vec::new(),
+            neighbors: Vec::new(),
+            reference: Vec::new(),
             skin,
-            ..Default::default()
+            builds: 0,
         }
     }
 
@@ -33,8 +40,18 @@ impl NeighborList {
         self.builds
     }
 
+    /// Total number of stored (directed) neighbour entries.
+    pub fn len(&self) -> usize {
+        self.neighbors.len()
+    }
+
+    /// Whether the list holds no pairs.
+    pub fn is_empty(&self) -> bool {
+        self.neighbors.is_empty()
+    }
+
     /// Rebuilds if needed; returns whether it did.
-    pub fn update(&mut self, positions: &[Vector3<f64>], radii: &[f64]) -> bool {
+    pub fn update(&mut self, positions: &[SVector<f64, D>], radii: &[f64]) -> bool {
         if self.needs_rebuild(positions) {
             self.build(positions, radii);
             true
@@ -43,7 +60,7 @@ impl NeighborList {
         }
     }
 
-    fn needs_rebuild(&self, positions: &[Vector3<f64>]) -> bool {
+    fn needs_rebuild(&self, positions: &[SVector<f64, D>]) -> bool {
         if self.reference.len() != positions.len() {
             return true;
         }
@@ -55,7 +72,7 @@ impl NeighborList {
     }
 
     /// Builds the list from a cell grid of cell size 2 R_max + skin.
-    pub fn build(&mut self, positions: &[Vector3<f64>], radii: &[f64]) {
+    pub fn build(&mut self, positions: &[SVector<f64, D>], radii: &[f64]) {
         let n = positions.len();
         let r_max = radii.iter().cloned().fold(0.0, f64::max);
         let grid = CellGrid::new(positions, 2.0 * r_max + self.skin);
@@ -65,7 +82,7 @@ impl NeighborList {
         let mut found = Vec::new();
         for i in 0..n {
             found.clear();
-            grid.for_each_near(positions[i], |j| {
+            grid.for_each_near(&positions[i], |j| {
                 if j != i {
                     let cutoff = radii[i] + radii[j] + self.skin;
                     if (positions[j] - positions[i]).norm_squared() < cutoff * cutoff {
@@ -84,35 +101,38 @@ impl NeighborList {
 }
 
 /// Particles binned into cubic cells (counting sort), for O(1) near-point queries.
-struct CellGrid {
-    origin: Vector3<f64>,
+struct CellGrid<const D: usize> {
+    origin: SVector<f64, D>,
     cell: f64,
-    dims: [usize; 3],
+    dims: [usize; D],
     start: Vec<usize>,
     members: Vec<usize>,
 }
 
-impl CellGrid {
-    fn new(positions: &[Vector3<f64>], cell: f64) -> Self {
-        let mut lo = Vector3::repeat(f64::INFINITY);
-        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+impl<const D: usize> CellGrid<D> {
+    fn new(positions: &[SVector<f64, D>], cell: f64) -> Self {
+        let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
+        let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
         for p in positions {
             lo = lo.inf(p);
             hi = hi.sup(p);
         }
         if positions.is_empty() {
-            lo = Vector3::zeros();
-            hi = Vector3::zeros();
+            lo = SVector::zeros();
+            hi = SVector::zeros();
         }
-        let dims = [0, 1, 2].map(|a| (((hi[a] - lo[a]) / cell).floor() as usize + 1).max(1));
+        let dims = std::array::from_fn(|a| (((hi[a] - lo[a]) / cell).floor() as usize + 1).max(1));
         let mut grid = Self {
             origin: lo,
             cell,
             dims,
-            start: vec![0; dims[0] * dims[1] * dims[2] + 1],
+            start: vec![0; dims.iter().product::<usize>() + 1],
             members: vec![0; positions.len()],
         };
-        let index: Vec<usize> = positions.iter().map(|p| grid.cell_of(*p)).collect();
+        let index: Vec<usize> = positions
+            .iter()
+            .map(|p| grid.flat(grid.coords(p)))
+            .collect();
         for &c in &index {
             grid.start[c + 1] += 1;
         }
@@ -127,29 +147,41 @@ impl CellGrid {
         grid
     }
 
-    fn coords(&self, p: Vector3<f64>) -> [usize; 3] {
-        [0, 1, 2].map(|a| {
+    fn coords(&self, p: &SVector<f64, D>) -> [usize; D] {
+        std::array::from_fn(|a| {
             let c = ((p[a] - self.origin[a]) / self.cell).floor();
             (c.max(0.0) as usize).min(self.dims[a] - 1)
         })
     }
 
-    fn cell_of(&self, p: Vector3<f64>) -> usize {
-        let [x, y, z] = self.coords(p);
-        (z * self.dims[1] + y) * self.dims[0] + x
+    /// Row-major cell index, axis 0 fastest.
+    fn flat(&self, c: [usize; D]) -> usize {
+        (0..D).rev().fold(0, |acc, a| acc * self.dims[a] + c[a])
     }
 
-    fn for_each_near(&self, p: Vector3<f64>, mut visit: impl FnMut(usize)) {
-        let c = self.coords(p);
-        let range = |a: usize| c[a].saturating_sub(1)..=(c[a] + 1).min(self.dims[a] - 1);
-        for z in range(2) {
-            for y in range(1) {
-                for x in range(0) {
-                    let cell = (z * self.dims[1] + y) * self.dims[0] + x;
-                    for &j in &self.members[self.start[cell]..self.start[cell + 1]] {
-                        visit(j);
-                    }
+    /// Visits the members of the 3^D cells around the cell of `p`.
+    fn for_each_near(&self, p: &SVector<f64, D>, mut visit: impl FnMut(usize)) {
+        let centre = self.coords(p);
+        let lo: [usize; D] = std::array::from_fn(|a| centre[a].saturating_sub(1));
+        let hi: [usize; D] = std::array::from_fn(|a| (centre[a] + 1).min(self.dims[a] - 1));
+        let mut c = lo;
+        loop {
+            let cell = self.flat(c);
+            for &j in &self.members[self.start[cell]..self.start[cell + 1]] {
+                visit(j);
+            }
+            // odometer step over the box lo..=hi
+            let mut a = 0;
+            loop {
+                if a == D {
+                    return;
                 }
+                if c[a] < hi[a] {
+                    c[a] += 1;
+                    break;
+                }
+                c[a] = lo[a];
+                a += 1;
             }
         }
     }
@@ -158,6 +190,7 @@ impl CellGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::{Vector2, Vector3};
     use rand::{RngExt, SeedableRng};
 
     #[test]
@@ -174,7 +207,7 @@ mod tests {
             })
             .collect();
         let radii: Vec<f64> = (0..n).map(|_| 0.8 + 0.4 * rng.random::<f64>()).collect();
-        let mut list = NeighborList::new(0.3);
+        let mut list = NeighborList::<3>::new(0.3);
         list.build(&positions, &radii);
         for i in 0..n {
             let brute: Vec<u32> = (0..n)
@@ -191,11 +224,31 @@ mod tests {
     fn rebuilds_only_after_half_skin_displacement() {
         let positions = vec![Vector3::zeros(), Vector3::new(3.0, 0.0, 0.0)];
         let radii = vec![1.0, 1.0];
-        let mut list = NeighborList::new(0.4);
+        let mut list = NeighborList::<3>::new(0.4);
         assert!(list.update(&positions, &radii));
         let moved = vec![Vector3::new(0.19, 0.0, 0.0), positions[1]];
         assert!(!list.update(&moved, &radii));
         let moved = vec![Vector3::new(0.21, 0.0, 0.0), positions[1]];
         assert!(list.update(&moved, &radii));
+    }
+
+    #[test]
+    fn fixed_cutoff_list_matches_all_pairs_in_2d() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let n = 300;
+        let positions: Vec<Vector2<f64>> = (0..n)
+            .map(|_| Vector2::new(rng.random::<f64>() * 30.0, rng.random::<f64>() * 12.0))
+            .collect();
+        let (r_c, r_v) = (2.5, 3.0);
+        let radii = vec![0.5 * r_c; n];
+        let mut list = NeighborList::<2>::new(r_v - r_c);
+        list.build(&positions, &radii);
+        for i in 0..n {
+            let brute: Vec<u32> = (0..n)
+                .filter(|&j| j != i && (positions[j] - positions[i]).norm() < r_v)
+                .map(|j| j as u32)
+                .collect();
+            assert_eq!(list.of(i), &brute[..], "particle {i}");
+        }
     }
 }

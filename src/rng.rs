@@ -16,6 +16,10 @@ pub enum Purpose {
     Positions = 2,
     /// Initial orientations.
     Orientations = 3,
+    /// Initial velocities.
+    Velocities = 4,
+    /// Charges (e.g. the sign mix of a charged cloud).
+    Charges = 5,
 }
 
 /// The stream for one purpose of one run.

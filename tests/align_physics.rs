@@ -131,7 +131,7 @@ fn contact_forces_obey_action_equals_reaction() {
         wall_friction: 0.2,
         skin: 0.1,
     };
-    let mut list = NeighborList::new(0.3);
+    let mut list = NeighborList::<3>::new(0.3);
     list.build(&position, &packing.radius);
     let mut contacts = ContactSet::default();
     contacts.rebuild(&position, &packing.radius, &list, &packing.container, &law);
