@@ -3,6 +3,7 @@
 //! See `ARCHITECTURE.md` for the map of modules and `../shared/spec/` for the physics contract.
 #![warn(missing_docs)]
 
+pub mod analysis;
 pub mod cli;
 pub mod error;
 pub mod materials;

@@ -2,4 +2,5 @@
 
 pub mod quadrature;
 pub mod roots;
+pub mod special;
 pub mod stats;
