@@ -8,5 +8,8 @@
 pub mod distribution;
 pub mod fit;
 pub mod pair;
+pub mod picture;
+pub mod report;
+pub mod snapshot;
 pub mod structure;
 pub mod voronoi;

@@ -147,12 +147,12 @@ fn metrics(particles: usize, cells: &[Cell], order: &[ParticleOrder]) -> Structu
     }
     let total = counted.len() as f64;
     let fraction = |keep: &dyn Fn(usize) -> bool| {
-        side_histogram
+        let cells: usize = side_histogram
             .iter()
             .filter(|(s, _)| keep(**s))
-            .map(|(_, c)| *c as f64)
-            .sum::<f64>()
-            / total
+            .map(|(_, c)| *c)
+            .sum();
+        cells as f64 / total
     };
     let hexagon_r = Stats::of(
         counted

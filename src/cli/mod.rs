@@ -2,6 +2,7 @@
 //! computation is a library call. Errors are printed as one line and exit with code 2.
 
 mod align;
+mod analyze;
 mod bench;
 mod study;
 
@@ -42,6 +43,8 @@ enum Command {
     Plot(study::PlotArgs),
     /// Benchmarks: DEM particle-steps per second and peak memory.
     Bench(bench::BenchArgs),
+    /// Structure, order and force analysis of a 2D snapshot (Parquet or CSV).
+    Analyze(analyze::AnalyzeArgs),
 }
 
 /// Runs the CLI; returns the process exit code.
@@ -95,6 +98,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Collect(args) => study::collect(db, &args),
         Command::Plot(args) => study::plot(&args),
         Command::Bench(args) => bench::run(&db, &args),
+        Command::Analyze(args) => analyze::run(&args),
     }
 }
 

@@ -6,4 +6,5 @@
 
 pub mod atomic;
 pub mod plot;
+pub mod shapes;
 pub mod table;

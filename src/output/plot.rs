@@ -179,7 +179,7 @@ pub fn render_png_sized(path: &Path, fig: &Figure, width: u32, height: u32) -> R
 }
 
 /// Registers the bundled font exactly once per process.
-fn ensure_font() -> Result<()> {
+pub(crate) fn ensure_font() -> Result<()> {
     static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {

@@ -325,6 +325,71 @@ pub fn read_parquet(path: &Path) -> Result<Table> {
     Ok(table)
 }
 
+/// Read a plain CSV file: a header row of column names, then one row per line, fields
+/// separated by commas (surrounding spaces trimmed). Empty lines and lines starting with `#`
+/// are skipped. A column whose every field parses as an integer is [`ColumnData::I64`], else
+/// one whose every field parses as a number is [`ColumnData::F64`] (`nan`, `inf` accepted),
+/// else [`ColumnData::Str`]. Quoted fields are not supported.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be read; [`Error::Output`] (naming the file and line) for
+/// no header, a duplicate or empty column name, a row with the wrong number of fields, or a
+/// quote character.
+pub fn read_csv(path: &Path) -> Result<Table> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let fail = |msg: String| Error::Output(format!("cannot read '{}': {msg}", path.display()));
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let split =
+        |line: &str| -> Vec<String> { line.split(',').map(|f| f.trim().to_string()).collect() };
+    let Some((_, header)) = lines.next() else {
+        return Err(fail("no header row".to_string()));
+    };
+    let names = split(header);
+    let mut fields: Vec<Vec<String>> = vec![Vec::new(); names.len()];
+    for (k, line) in lines {
+        if line.contains('"') {
+            return Err(fail(format!(
+                "line {}: quoted fields are not supported",
+                k + 1
+            )));
+        }
+        let row = split(line);
+        if row.len() != names.len() {
+            return Err(fail(format!(
+                "line {}: {} fields, but the header names {} columns",
+                k + 1,
+                row.len(),
+                names.len()
+            )));
+        }
+        for (column, value) in fields.iter_mut().zip(row) {
+            column.push(value);
+        }
+    }
+    let mut table = Table::new();
+    for (name, values) in names.iter().zip(fields) {
+        if name.is_empty() || table.column(name).is_some() {
+            return Err(fail(format!("column name '{name}' is empty or repeated")));
+        }
+        table.push(name, csv_column(values));
+    }
+    Ok(table)
+}
+
+/// The narrowest [`ColumnData`] that holds every field: integers, numbers, or strings.
+fn csv_column(values: Vec<String>) -> ColumnData {
+    if let Ok(ints) = values.iter().map(|v| v.parse::<i64>()).collect() {
+        return ColumnData::I64(ints);
+    }
+    if let Ok(floats) = values.iter().map(|v| v.parse::<f64>()).collect() {
+        return ColumnData::F64(floats);
+    }
+    ColumnData::Str(values)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -530,5 +595,41 @@ mod tests {
         }
         acc.append(&empty).unwrap();
         assert_eq!(acc.n_rows(), 10);
+    }
+
+    #[test]
+    fn csv_types_and_errors() {
+        let dir = test_dir("csv");
+        let path = dir.join("t.csv");
+        std::fs::write(
+            &path,
+            "# comment\nx, y ,species,name\n1.5,2,1,a\n\n-3e-3,4,2,b\n",
+        )
+        .unwrap();
+        let t = read_csv(&path).unwrap();
+        assert_eq!(t.column("x"), Some(&ColumnData::F64(vec![1.5, -3e-3])));
+        assert_eq!(t.column("y"), Some(&ColumnData::I64(vec![2, 4])));
+        assert_eq!(
+            t.column("name"),
+            Some(&ColumnData::Str(vec!["a".into(), "b".into()]))
+        );
+        for (bad, needle) in [
+            ("x,y\n1,2,3\n", "line 2"),
+            ("", "no header"),
+            ("x,x\n1,2\n", "repeated"),
+            ("x\n\"1\"\n", "quoted"),
+        ] {
+            std::fs::write(&path, bad).unwrap();
+            let err = read_csv(&path).unwrap_err();
+            assert!(
+                matches!(err, Error::Output(ref m) if m.contains(needle)),
+                "{err:?}"
+            );
+        }
+        assert!(matches!(
+            read_csv(&dir.join("missing.csv")),
+            Err(Error::Io { .. })
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -1,0 +1,172 @@
+//! Pictures of a 2D snapshot: Voronoi cells coloured by side count (hexagons shaded by their
+//! regularity) and particles coloured by force.
+
+use std::path::Path;
+
+use super::snapshot::Snapshot;
+use super::structure::Structure;
+use super::voronoi::Cell;
+use crate::output::shapes::{render_canvas_png, viridis, Canvas, ColorBar, Rgb, Shape};
+use crate::Result;
+
+/// Picture width in pixels.
+const WIDTH: u32 = 1600;
+/// Cells that fail the border rule.
+const NOT_COUNTED: Rgb = (228, 228, 228);
+/// Side counts ≤ 4, 5, 7, ≥ 8.
+const FEW: Rgb = (130, 90, 170);
+const FIVE: Rgb = (70, 120, 210);
+const SEVEN: Rgb = (220, 60, 50);
+const MANY: Rgb = (245, 160, 40);
+/// Hexagon shades from most to least regular, with their lower regularity bounds.
+const HEXAGONS: [(f64, Rgb); 4] = [
+    (0.98, (0, 100, 30)),
+    (0.95, (40, 150, 60)),
+    (0.90, (120, 200, 110)),
+    (f64::NEG_INFINITY, (200, 235, 185)),
+];
+
+/// Fill colour of a cell.
+fn cell_colour(cell: &Cell) -> Rgb {
+    if !cell.counted {
+        return NOT_COUNTED;
+    }
+    match cell.sides() {
+        0..=4 => FEW,
+        5 => FIVE,
+        6 => {
+            let r = cell.regularity();
+            HEXAGONS
+                .iter()
+                .find(|(lo, _)| r >= *lo)
+                .map_or(HEXAGONS[3].1, |(_, c)| *c)
+        }
+        7 => SEVEN,
+        _ => MANY,
+    }
+}
+
+/// Mean distance between Voronoi neighbours (m).
+fn mean_bond(snapshot: &Snapshot, structure: &Structure) -> f64 {
+    let p = &snapshot.positions;
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (i, c) in structure.tessellation.cells.iter().enumerate() {
+        for &j in &c.neighbors {
+            sum += (p[j as usize] - p[i]).norm();
+            count += 1;
+        }
+    }
+    sum / count.max(1) as f64
+}
+
+/// Drawing radius of each particle: half its diameter, or `fraction` of the mean neighbour
+/// distance when the snapshot has no diameters.
+fn radii(snapshot: &Snapshot, structure: &Structure, fraction: f64) -> Vec<f64> {
+    match &snapshot.diameter {
+        Some(d) => d.iter().map(|v| 0.5 * v).collect(),
+        None => vec![fraction * mean_bond(snapshot, structure); snapshot.len()],
+    }
+}
+
+/// Voronoi cells coloured by side count, particles as grey discs. Cells not counted are drawn
+/// only when they lie within one mean neighbour distance of the rectangle of the centres (hull
+/// cells can reach far out).
+pub fn cells_picture(path: &Path, snapshot: &Snapshot, structure: &Structure) -> Result<()> {
+    let margin = mean_bond(snapshot, structure);
+    let (lo, hi) = structure.tessellation.bounds;
+    let in_view = |c: &&Cell| {
+        c.counted
+            || c.vertices.iter().all(|v| {
+                v.x >= lo.x - margin
+                    && v.x <= hi.x + margin
+                    && v.y >= lo.y - margin
+                    && v.y <= hi.y + margin
+            })
+    };
+    let mut shapes: Vec<Shape> = structure
+        .tessellation
+        .cells
+        .iter()
+        .filter(|c| c.bounded)
+        .filter(in_view)
+        .map(|c| Shape::Polygon {
+            points: c.vertices.iter().map(|v| (v.x, v.y)).collect(),
+            fill: cell_colour(c),
+            stroke: (90, 90, 90),
+        })
+        .collect();
+    let r = radii(snapshot, structure, 0.2);
+    shapes.extend(
+        snapshot
+            .positions
+            .iter()
+            .zip(&r)
+            .map(|(p, r)| Shape::Circle {
+                centre: (p.x, p.y),
+                radius: 0.35 * r,
+                fill: (60, 60, 60),
+            }),
+    );
+    let m = &structure.metrics;
+    let legend = vec![
+        ("≤ 4 sides".to_string(), FEW),
+        ("5 sides".to_string(), FIVE),
+        ("6, R ≥ 0.98".to_string(), HEXAGONS[0].1),
+        ("6, 0.95 ≤ R < 0.98".to_string(), HEXAGONS[1].1),
+        ("6, 0.90 ≤ R < 0.95".to_string(), HEXAGONS[2].1),
+        ("6, R < 0.90".to_string(), HEXAGONS[3].1),
+        ("7 sides".to_string(), SEVEN),
+        ("≥ 8 sides".to_string(), MANY),
+        ("not counted".to_string(), NOT_COUNTED),
+    ];
+    let canvas = Canvas {
+        title: format!(
+            "Voronoi cells: n5 = {:.3}, n6 = {:.3}, n7 = {:.3}, Ψ6 = {:.3}",
+            m.n5, m.n6, m.n7, m.psi6
+        ),
+        x_label: "x (m)".into(),
+        y_label: "y (m)".into(),
+        shapes,
+        legend,
+        color_bar: None,
+    };
+    render_canvas_png(path, &canvas, WIDTH)
+}
+
+/// Particles coloured by their force magnitude (viridis, linear from min to max).
+pub fn force_picture(
+    path: &Path,
+    snapshot: &Snapshot,
+    structure: &Structure,
+    forces: &[f64],
+) -> Result<()> {
+    let lo = forces.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = forces.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    let r = radii(snapshot, structure, 0.5);
+    let shapes = snapshot
+        .positions
+        .iter()
+        .zip(&r)
+        .zip(forces)
+        .map(|((p, r), f)| Shape::Circle {
+            centre: (p.x, p.y),
+            radius: *r,
+            fill: viridis((f - lo) / span),
+        })
+        .collect();
+    let canvas = Canvas {
+        title: "Particles coloured by force".into(),
+        x_label: "x (m)".into(),
+        y_label: "y (m)".into(),
+        shapes,
+        legend: Vec::new(),
+        color_bar: Some(ColorBar {
+            label: "force (N)".into(),
+            lo,
+            hi,
+            map: viridis,
+        }),
+    };
+    render_canvas_png(path, &canvas, WIDTH)
+}
