@@ -19,6 +19,9 @@ use crate::{Error, Result};
 enum Target {
     /// The DEM alignment stage (Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm).
     Align,
+    /// The 2D structure analysis (Voronoi, n5/n6/n7, Ψ6, regularity) of --points jittered
+    /// lattice points.
+    Analyze,
 }
 
 /// `magopt bench` options.
@@ -36,11 +39,16 @@ pub struct BenchArgs {
     /// Cap on alignment steps per run (the run stops earlier at A = 0.95).
     #[arg(long, default_value_t = 1000)]
     max_steps: usize,
+    /// `bench analyze`: point counts, comma-separated.
+    #[arg(long, default_value = "10000,100000", value_delimiter = ',')]
+    points: Vec<String>,
 }
 
 /// Runs the benchmark and prints one line per (N, threads).
 pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
-    let Target::Align = args.target;
+    if let Target::Analyze = args.target {
+        return run_analyze(args);
+    }
     let material = db.get("srfe12o19")?.clone();
     println!("align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, settled packing");
     println!(
@@ -98,4 +106,38 @@ fn peak_rss_mb() -> f64 {
                 .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
         })
         .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+/// `magopt bench analyze`: wall time of `structure::analyze` (tessellation, side counts, Ψ6,
+/// regularity) on a triangular lattice with 10 % jitter, best of three runs.
+fn run_analyze(args: &BenchArgs) -> Result<()> {
+    use nalgebra::Vector2;
+    use rand::{RngExt, SeedableRng};
+    println!("analyze: triangular lattice, uniform jitter ±0.1 spacing, best of 3 runs");
+    println!(
+        "{:>9} {:>13} {:>8} {:>13}",
+        "points", "cells counted", "n6", "analyze (s)"
+    );
+    for text in &args.points {
+        let n = count("points", text)?;
+        let side = (n as f64).sqrt().ceil() as usize;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let points: Vec<Vector2<f64>> = (0..n)
+            .map(|k| {
+                let (r, c) = ((k / side) as f64, (k % side) as f64);
+                let jitter = Vector2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+                Vector2::new(c + 0.5 * (r % 2.0), r * 0.75f64.sqrt()) + 0.2 * jitter
+            })
+            .collect();
+        let mut best = f64::INFINITY;
+        let mut metrics = None;
+        for _ in 0..3 {
+            let started = Instant::now();
+            metrics = Some(crate::analysis::structure::analyze(&points)?);
+            best = best.min(started.elapsed().as_secs_f64());
+        }
+        let m = metrics.expect("three runs");
+        println!("{n:>9} {:>13} {:>8.4} {best:>13.3}", m.cells_counted, m.n6);
+    }
+    Ok(())
 }
