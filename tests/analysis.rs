@@ -233,6 +233,8 @@ fn analyze_command_json_and_outputs() {
         "cells.png",
         "force_pdf.parquet",
         "forces.png",
+        "force_pdf.png",
+        "fluctuations.png",
         "rdf.parquet",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");

@@ -1,11 +1,13 @@
 //! Pictures of a 2D snapshot: Voronoi cells coloured by side count (hexagons shaded by their
-//! regularity) and particles coloured by force.
+//! regularity), particles coloured by force or by its relative fluctuation, force PDFs.
 
 use std::path::Path;
 
+use super::distribution::SpeciesForces;
 use super::snapshot::Snapshot;
 use super::structure::Structure;
 use super::voronoi::Cell;
+use crate::output::plot::{render_png, Figure, Series, SeriesStyle};
 use crate::output::shapes::{render_canvas_png, viridis, Canvas, ColorBar, Rgb, Shape};
 use crate::Result;
 
@@ -133,40 +135,72 @@ pub fn cells_picture(path: &Path, snapshot: &Snapshot, structure: &Structure) ->
     render_canvas_png(path, &canvas, WIDTH)
 }
 
-/// Particles coloured by their force magnitude (viridis, linear from min to max).
-pub fn force_picture(
+/// Particles coloured by a per-particle value (viridis, linear from its min to its max; NaN
+/// values get the bottom colour), e.g. the force (N) or its relative fluctuation.
+pub fn value_picture(
     path: &Path,
     snapshot: &Snapshot,
     structure: &Structure,
-    forces: &[f64],
+    values: &[f64],
+    title: &str,
+    label: &str,
 ) -> Result<()> {
-    let lo = forces.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = forces.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let finite = values.iter().copied().filter(|v| v.is_finite());
+    let lo = finite.clone().fold(f64::INFINITY, f64::min);
+    let hi = finite.fold(f64::NEG_INFINITY, f64::max);
     let span = if hi > lo { hi - lo } else { 1.0 };
     let r = radii(snapshot, structure, 0.5);
     let shapes = snapshot
         .positions
         .iter()
         .zip(&r)
-        .zip(forces)
-        .map(|((p, r), f)| Shape::Circle {
+        .zip(values)
+        .map(|((p, r), v)| Shape::Circle {
             centre: (p.x, p.y),
             radius: *r,
-            fill: viridis((f - lo) / span),
+            fill: viridis((v - lo) / span),
         })
         .collect();
     let canvas = Canvas {
-        title: "Particles coloured by force".into(),
+        title: title.into(),
         x_label: "x (m)".into(),
         y_label: "y (m)".into(),
         shapes,
         legend: Vec::new(),
         color_bar: Some(ColorBar {
-            label: "force (N)".into(),
+            label: label.into(),
             lo,
             hi,
             map: viridis,
         }),
     };
     render_canvas_png(path, &canvas, WIDTH)
+}
+
+/// Force PDFs, one line per species, against the bin centres.
+pub fn force_pdf_figure(path: &Path, forces: &[SpeciesForces]) -> Result<()> {
+    let series = forces
+        .iter()
+        .map(|d| {
+            let h = &d.histogram;
+            Series {
+                label: format!(
+                    "species {} (N = {}, mean {:.3e} N)",
+                    d.species, d.count, d.mean
+                ),
+                x: h.edges.windows(2).map(|e| 0.5 * (e[0] + e[1])).collect(),
+                y: h.density.clone(),
+                y_err: None,
+                style: SeriesStyle::LinePoints,
+            }
+        })
+        .collect();
+    let figure = Figure {
+        title: "Force distribution per species (Knuth bins)".into(),
+        x_label: "force (N)".into(),
+        y_label: "probability density (1/N)".into(),
+        series,
+        ..Figure::default()
+    };
+    render_png(path, &figure)
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use super::distribution::{force_distributions, relative_fluctuations, SpeciesForces};
 use super::pair::{coordination, radial_distribution, RadialDistribution};
-use super::picture::{cells_picture, force_picture};
+use super::picture::{cells_picture, force_pdf_figure, value_picture};
 use super::snapshot::Snapshot;
 use super::structure::{analyze_full, modulus, Structure, StructureMetrics};
 use super::voronoi::TessellationSettings;
@@ -248,7 +248,8 @@ fn force_pdf_table(forces: &[SpeciesForces]) -> Table {
 }
 
 /// Writes into `dir`: summary.json, cells.parquet, cell_vertices.parquet, particles.parquet,
-/// cells.png, and with forces force_pdf.parquet and forces.png, with g(r) rdf.parquet.
+/// cells.png; with forces force_pdf.parquet, force_pdf.png, forces.png and fluctuations.png;
+/// with g(r) rdf.parquet.
 ///
 /// # Errors
 /// [`crate::Error::Io`] or [`crate::Error::Output`] if a file cannot be written.
@@ -267,8 +268,28 @@ pub fn write_outputs(dir: &Path, snapshot: &Snapshot, analysis: &SnapshotAnalysi
     )?;
     cells_picture(&dir.join("cells.png"), snapshot, &analysis.structure)?;
     if let (Some(f), Some(dists)) = (&snapshot.force, &analysis.summary.forces) {
+        let s = &analysis.structure;
         write_parquet(&dir.join("force_pdf.parquet"), &force_pdf_table(dists))?;
-        force_picture(&dir.join("forces.png"), snapshot, &analysis.structure, f)?;
+        force_pdf_figure(&dir.join("force_pdf.png"), dists)?;
+        value_picture(
+            &dir.join("forces.png"),
+            snapshot,
+            s,
+            f,
+            "Particles coloured by force",
+            "force (N)",
+        )?;
+        if let Some(fl) = &analysis.fluctuations {
+            let title = "Relative force fluctuation |F − F̄_s| / F̄_s";
+            value_picture(
+                &dir.join("fluctuations.png"),
+                snapshot,
+                s,
+                fl,
+                title,
+                "|F − F̄_s| / F̄_s",
+            )?;
+        }
     }
     if let Some(rdf) = &analysis.summary.rdf {
         let t = Table::new()
