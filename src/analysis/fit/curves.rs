@@ -32,12 +32,6 @@ pub fn linear(x: &[f64], y: &[f64]) -> Result<Fit> {
     ))
 }
 
-/// Least-squares amplitude a of y ≈ a · f for fixed basis values f.
-fn amplitude(f: &[f64], y: &[f64]) -> f64 {
-    let ff: f64 = f.iter().map(|v| v * v).sum();
-    f.iter().zip(y).map(|(a, b)| a * b).sum::<f64>() / ff
-}
-
 /// Power law y = a x^b (x > 0), least squares in y. For a given b the amplitude a is linear and
 /// solved exactly, so Nelder–Mead searches b alone, starting from the log–log line where all
 /// y > 0. Parameters: `a`, `b`.
@@ -59,18 +53,26 @@ pub fn power_law(x: &[f64], y: &[f64], settings: &FitSettings) -> Result<Fit> {
     } else {
         1.0
     };
-    let basis = |b: f64| -> Vec<f64> { x.iter().map(|v| v.powf(b)).collect() };
+    // Least-squares amplitude for a given exponent: a = Σ y x^b / Σ x^{2b}.
+    let amplitude = |b: f64| {
+        let (mut num, mut den) = (0.0, 0.0);
+        for (v, w) in x.iter().zip(y) {
+            let f = v.powf(b);
+            num += w * f;
+            den += f * f;
+        }
+        num / den
+    };
     let rss_of = |p: &[f64]| {
-        let f = basis(p[0]);
-        let a = amplitude(&f, y);
-        f.iter()
+        let a = amplitude(p[0]);
+        x.iter()
             .zip(y)
-            .map(|(u, v)| (v - a * u).powi(2))
+            .map(|(v, w)| (w - a * v.powf(p[0])).powi(2))
             .sum::<f64>()
     };
     let (best, _, iterations) = minimize(&rss_of, vec![start], &[0.1], settings);
     let b = best[0];
-    let a = amplitude(&basis(b), y);
+    let a = amplitude(b);
     let predict = |p: &[f64], out: &mut [f64]| {
         for (o, v) in out.iter_mut().zip(x) {
             *o = p[0] * v.powf(p[1]);
@@ -194,6 +196,11 @@ pub(crate) mod tests {
         let y: Vec<f64> = x.iter().zip(&e).map(|(v, n)| 1.5 - 0.7 * v + n).collect();
         let fit = linear(&x, &y).unwrap();
         assert_recovers(&fit, &[1.5, -0.7], 0.2);
+        // The Jacobian-based standard error equals the textbook s / √Σ(x − x̄)².
+        let mean = x.iter().sum::<f64>() / 200.0;
+        let sxx: f64 = x.iter().map(|v| (v - mean).powi(2)).sum();
+        let s = (fit.rss / 198.0).sqrt();
+        assert!((fit.std_errors[1] / (s / sxx.sqrt()) - 1.0).abs() < 1e-6);
         assert!(fit.r_squared > 0.95);
         // Exact data: R² = 1.
         let exact = linear(&[0.0, 1.0, 2.0], &[1.0, 3.0, 5.0]).unwrap();
