@@ -171,6 +171,32 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Whatever the centres (duplicates, lines, extreme or non-finite values), the analysis
+    /// returns metrics or an input error, never panics.
+    #[test]
+    fn never_panics(points in prop::collection::vec(
+        (prop_oneof![
+            4 => (-3i32..3).prop_map(f64::from),
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => Just(1e308),
+            1 => Just(-1e308),
+            1 => Just(1e-300),
+            2 => -1e6f64..1e6,
+        ], -3i32..3),
+        0..40,
+    )) {
+        let pts: Vec<_> = points.iter().map(|(x, y)| Vector2::new(*x, f64::from(*y))).collect();
+        match analyze(&pts) {
+            Ok(m) => prop_assert!(m.cells_counted <= pts.len()),
+            Err(e) => prop_assert!(matches!(e, Error::Input(_)), "{e:?}"),
+        }
+    }
+}
+
 // ---- the command ----
 
 fn magopt(args: &[&str]) -> (i32, String, String) {
@@ -242,6 +268,39 @@ fn analyze_command_json_and_outputs() {
     let particles = magopt::output::table::read_parquet(&out.join("particles.parquet")).unwrap();
     assert_eq!(particles.n_rows(), 400);
     assert!(particles.column("relative_fluctuation").is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn analyze_command_reads_the_bed_parquet_contract() {
+    use magopt::output::table::{write_parquet, ColumnData, Table};
+    let pts = triangular(12, 12, 1e-3);
+    let n = pts.len();
+    let table = Table::new()
+        .with("x", ColumnData::F64(pts.iter().map(|p| p.x).collect()))
+        .with("y", ColumnData::F64(pts.iter().map(|p| p.y).collect()))
+        .with("diameter", ColumnData::F64(vec![1e-3; n]))
+        .with(
+            "species",
+            ColumnData::I64((0..n as i64).map(|i| i % 2).collect()),
+        )
+        .with("vx", ColumnData::F64(vec![0.0; n]))
+        .with("vy", ColumnData::F64(vec![0.0; n]))
+        .with(
+            "force",
+            ColumnData::F64((0..n).map(|i| 1.0 + (i % 7) as f64).collect()),
+        );
+    let dir = temp_dir("parquet");
+    let file = dir.join("snapshot.parquet");
+    write_parquet(&file, &table).unwrap();
+    let (code, stdout, stderr) = magopt(&["analyze", file.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(
+        (v["n6"].as_f64(), v["cells_counted"].as_u64()),
+        (Some(1.0), Some(100))
+    );
+    assert_eq!(v["forces"].as_array().unwrap().len(), 2);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -50,6 +50,23 @@ fn check_finite(points: &[Vector2<f64>]) -> Result<()> {
     }
 }
 
+/// Checks that a cell grid of cell size `cell` over the centres stays O(N) in memory (the
+/// neighbour list's grid is dense): at most 8 N + 10⁶ cells.
+fn check_grid(points: &[Vector2<f64>], cell: f64, what: &str) -> Result<()> {
+    let (lo, hi) = bounds(points);
+    let cells = ((hi.x - lo.x) / cell + 1.0) * ((hi.y - lo.y) / cell + 1.0);
+    let limit = 8.0 * points.len() as f64 + 1e6;
+    if cells.is_nan() || cells > limit {
+        return Err(Error::input(format!(
+            "{what}: the length {cell:e} is too small for a sample spanning {:e} × {:e} \
+             (a neighbour grid of {cells:.1e} cells, limit {limit:.1e})",
+            hi.x - lo.x,
+            hi.y - lo.y
+        )));
+    }
+    Ok(())
+}
+
 /// Radial distribution function g(r) with `bins` equal bins on [0, r_max] (m), guard-zone
 /// edge treatment (see the module documentation).
 ///
@@ -85,6 +102,7 @@ pub fn radial_distribution(
             "g(r): no particle lies {r_max} or more from the sample's edges; choose a smaller r_max"
         )));
     }
+    check_grid(points, r_max, "g(r) r_max")?;
     let mut list = NeighborList::<2>::new(0.0);
     list.build(points, &vec![0.5 * r_max; points.len()]);
     let dr = r_max / bins as f64;
@@ -149,6 +167,12 @@ pub fn coordination(
         .iter()
         .map(|d| 0.5 * d * (1.0 + tolerance))
         .collect();
+    let largest = radii.iter().copied().fold(0.0, f64::max);
+    check_grid(
+        points,
+        2.0 * largest,
+        "coordination: largest contact diameter",
+    )?;
     let mut list = NeighborList::<2>::new(0.0);
     list.build(points, &radii);
     Ok((0..points.len()).map(|i| list.of(i).len()).collect())
@@ -216,5 +240,8 @@ mod tests {
         assert!(radial_distribution(&pts[..3], 0.1, 10).is_err());
         assert!(coordination(&pts, &[1.0], 0.0).is_err());
         assert!(coordination(&pts, &[f64::NAN; 25], 0.0).is_err());
+        // Tiny lengths against the sample extent would need a huge dense grid: refused.
+        assert!(coordination(&pts, &[1e-12; 25], 0.0).is_err());
+        assert!(radial_distribution(&triangular(40, 40, 1.0), 1e-9, 10).is_err());
     }
 }

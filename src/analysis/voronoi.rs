@@ -173,6 +173,13 @@ pub fn tessellate_with(
     }
     let (lo, hi) = check_points(points)?;
     let half_diagonal = 0.5 * (hi - lo).norm();
+    if !half_diagonal.is_finite() {
+        return Err(Error::input(format!(
+            "the particle centres span {:e} × {:e}: too large to analyse",
+            hi.x - lo.x,
+            hi.y - lo.y
+        )));
+    }
     if half_diagonal == 0.0 {
         return Err(Error::input(format!(
             "all {} particle centres coincide",
