@@ -65,6 +65,43 @@ fn jittered_square_lattice_has_little_hexatic_order() {
     assert!(m.psi6 < 0.2, "{}", m.psi6);
     // Weighted by side length, the diagonals (sides of length ~ jitter) drop out: Ψ6 = O(jitter).
     assert!(m.psi6_weighted < 10.0 * 1e-3, "{}", m.psi6_weighted);
+    // Side counts are topological and see the tiny diagonal sides as sides: most cells have
+    // 5–7. Merging sides below 1 % of the bond length recovers the squares.
+    assert!(m.n6 > 0.2, "{m:?}");
+    let merged = TessellationSettings {
+        merge_tolerance: 1e-2,
+    };
+    let m = analyze_full(&pts, &merged).unwrap().metrics;
+    assert_eq!(
+        m.side_histogram.keys().copied().collect::<Vec<_>>(),
+        vec![4]
+    );
+    assert!(m.psi6 < 10.0 * 1e-3, "{}", m.psi6);
+}
+
+#[test]
+fn poisson_voronoi_side_distribution() {
+    // Cells of uniformly random points (Poisson–Voronoi): p6 = 0.29470, p5 = 0.25938,
+    // p4 = 0.10705, p3 = 0.01124 (Hinde & Miles 1980; Calka 2003), so n5 = 0.37767, and the
+    // mean side count is 6 (Euler). Error model: binomial, √(p(1 − p)/cells) ≈ 0.0023 at
+    // 40 000 cells; neighbouring cells are correlated (Aboav–Weaire), hence 5σ.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2026);
+    let pts: Vec<_> = (0..40_000)
+        .map(|_| Vector2::new(rng.random::<f64>(), rng.random::<f64>()))
+        .collect();
+    let m = analyze(&pts).unwrap();
+    let cells = m.cells_counted as f64;
+    for (got, p) in [(m.n6, 0.29470), (m.n5, 0.37767)] {
+        let sigma = (p * (1.0 - p) / cells).sqrt();
+        assert!((got - p).abs() < 5.0 * sigma, "{got} vs {p} (σ = {sigma})");
+    }
+    let mean_sides = m
+        .side_histogram
+        .iter()
+        .map(|(s, c)| (s * c) as f64)
+        .sum::<f64>()
+        / cells;
+    assert!((mean_sides - 6.0).abs() < 0.02, "{mean_sides}");
 }
 
 #[test]

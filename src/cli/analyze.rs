@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use super::count;
 use crate::analysis::report::{analyze_snapshot, write_outputs, SnapshotOptions, SnapshotSummary};
 use crate::analysis::snapshot::Snapshot;
+use crate::analysis::voronoi::TessellationSettings;
 use crate::output::atomic;
 use crate::units::{parse_quantity, Dimension};
 use crate::{Error, Result};
@@ -32,6 +33,10 @@ pub struct AnalyzeArgs {
     /// (1 + tolerance)(d_i + d_j)/2.
     #[arg(long, allow_hyphen_values = true, default_value_t = crate::analysis::report::DEFAULT_CONTACT_TOLERANCE)]
     contact_tolerance: f64,
+    /// Voronoi sides shorter than this fraction of the mean neighbour distance are merged into
+    /// a corner (only exactly co-circular centres are affected at the default).
+    #[arg(long, allow_hyphen_values = true, default_value_t = crate::analysis::voronoi::DEFAULT_MERGE_TOLERANCE)]
+    merge_tolerance: f64,
 }
 
 impl AnalyzeArgs {
@@ -55,11 +60,19 @@ impl AnalyzeArgs {
                 self.contact_tolerance
             )));
         }
+        if !(self.merge_tolerance.is_finite() && (0.0..1.0).contains(&self.merge_tolerance)) {
+            return Err(Error::input(format!(
+                "--merge-tolerance: {} is not allowed (need a number in [0, 1))",
+                self.merge_tolerance
+            )));
+        }
         Ok(SnapshotOptions {
             rdf_max,
             rdf_bins: count("rdf-bins", &self.rdf_bins)?,
             contact_tolerance: self.contact_tolerance,
-            ..SnapshotOptions::default()
+            tessellation: TessellationSettings {
+                merge_tolerance: self.merge_tolerance,
+            },
         })
     }
 }
