@@ -2,8 +2,16 @@
 //! Voronoi structure and order of 2D snapshots, pair correlation and coordination,
 //! histograms (Knuth's rule), correlation, and least-squares fits.
 //!
-//! Entry point for a model: [`structure::analyze`] on the particle centres returns the
-//! [`structure::StructureMetrics`] (n5, n6, n7, side histogram, Ψ6, hexagon regularity).
+//! Entry points for a model:
+//! - [`structure::analyze`]`(&[nalgebra::Vector2<f64>]) -> Result<StructureMetrics>` on the
+//!   particle centres (any length unit): n5, n6, n7, side histogram, Ψ6 (plain and
+//!   side-length weighted), hexagon regularity mean/std, cells counted by the border rule;
+//!   [`structure::StructureMetrics::named_values`] lists them as (name, value) for a study
+//!   model's metrics. Degenerate centres (< 3, collinear, duplicates, NaN) are an
+//!   [`crate::Error::Input`], never a panic.
+//! - [`structure::analyze_full`] adds the cells and per-particle ψ6;
+//!   [`report::analyze_snapshot`] on a [`snapshot::Snapshot`] adds coordination, force
+//!   distributions and g(r), as `magopt analyze` prints them.
 
 pub mod distribution;
 pub mod fit;
