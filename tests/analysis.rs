@@ -305,6 +305,15 @@ fn analyze_command_json_and_outputs() {
     let particles = magopt::output::table::read_parquet(&out.join("particles.parquet")).unwrap();
     assert_eq!(particles.n_rows(), 400);
     assert!(particles.column("relative_fluctuation").is_some());
+    // The tables agree with the summary.
+    let cells = magopt::output::table::read_parquet(&out.join("cells.parquet")).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let Some(magopt::output::table::ColumnData::Bool(counted)) = cells.column("counted") else {
+        panic!("no counted column")
+    };
+    let n_counted = counted.iter().filter(|c| **c).count();
+    assert_eq!(summary["cells_counted"].as_u64(), Some(n_counted as u64));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
