@@ -8,7 +8,7 @@
 //!   law is evaluated at the *end* velocity (backward Euler): v' = u − (h/m) μ_d N v'/(|v'| + v_t),
 //!   solved in closed form. v' is parallel to u with 0 ≤ |v'| ≤ |u|, so friction can stop a
 //!   particle but never reverse it, at any step size;
-//! - the explicit reference evaluates B5 at the start velocity (stick: F_F = −F_T, so a stuck
+//! - the explicit reference evaluates B5 (and B3) at the start velocity (stick: F_F = −F_T, so a stuck
 //!   particle keeps its creep velocity below v_t); it needs Δt ≲ m v_t/(μ_d N).
 //!
 //! Δt = factor/ω_max with ω_max² the largest k/m over every pair and wall interaction at the
@@ -64,6 +64,7 @@ impl Kick {
     ) -> Vector2<f64> {
         let vt = self.threshold_speed;
         if self.dry && self.scheme == FrictionScheme::Explicit {
+            let force = force - v * self.viscous_time.map_or(0.0, |tau| m / tau);
             let friction = if v.norm() < vt && force.norm() <= self.static_friction * normal {
                 -force
             } else {
