@@ -82,7 +82,7 @@ pub struct BedArgs {
     /// Interval of the recorded series (s, ms; bare number: s) [default: 0.05 s bed, 2 ms damper].
     #[arg(long, allow_hyphen_values = true)]
     record_interval: Option<String>,
-    /// Damper: piston mass (g, kg, mg; bare number: g) [default: 50 g].
+    /// Damper: piston mass (g, kg, mg; bare number: g) [default: 200 g].
     #[arg(long, allow_hyphen_values = true)]
     piston_mass: Option<String>,
     /// Damper: duration of each free motion (s; bare number: s) [default: 2 s].
@@ -249,6 +249,7 @@ fn json(o: &BedOutcome, p: &BedParams, seed: u64, model: &str) -> serde_json::Va
             value.map_or(serde_json::Value::Null, |v| serde_json::json!(v)),
         );
     }
+    map.insert("wall_time_s".into(), o.wall_time_s.into());
     map.insert("magopt_version".into(), records::VERSION.into());
     serde_json::Value::Object(map)
 }

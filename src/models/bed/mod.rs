@@ -159,7 +159,6 @@ impl BedOutcome {
             ("steps", Some(self.steps as f64)),
             ("mean_time_step_s", finite(self.mean_time_step)),
             ("list_builds", Some(self.list_builds as f64)),
-            ("wall_time_s", Some(self.wall_time_s)),
         ]
     }
 }

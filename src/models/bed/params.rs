@@ -175,7 +175,7 @@ pub struct BedParams {
     pub min_distance_ratio: f64,
     /// Collect snapshots (start of compression, maximum compression, end).
     pub snapshots: bool,
-    /// Damper: piston mass, kg (50 g).
+    /// Damper: piston mass, kg (200 g; a piston much heavier than the bed can carry crushes it).
     pub piston_mass: f64,
     /// Damper: duration of each of the two free motions, s (2 s).
     pub damper_time: f64,
@@ -223,7 +223,7 @@ impl BedParams {
             record_interval: 0.05,
             min_distance_ratio: 0.9,
             snapshots: true,
-            piston_mass: 0.05,
+            piston_mass: 0.2,
             damper_time: 2.0,
         }
     }
@@ -430,25 +430,11 @@ impl BedParams {
         }
         let geometry = super::state::Geometry::of(self);
         let (w, h) = (geometry.width, geometry.height);
-        if geometry.start_height >= h {
-            return Err(Error::input(format!(
-                "start_packing_fraction: {phi0} needs a start height {:.4} m above the cell \
-                 height {h:.4} m (need a larger φ_start or a taller cell)",
-                geometry.start_height
-            )));
-        }
         let d_max = self
             .species_list()
             .iter()
             .map(|s| s.diameter)
             .fold(0.0, f64::max);
-        if geometry.final_height < 2.0 * d_max {
-            return Err(Error::input(format!(
-                "max_packing_fraction: {phi1} puts the piston at {:.4} m, below two diameters \
-                 (too many particles for the cell)",
-                geometry.final_height
-            )));
-        }
         let spacing = super::state::grid_spacing(self.particle_count(), w, h);
         if spacing < 1.5 * d_max {
             return Err(Error::input(format!(
@@ -456,6 +442,20 @@ impl BedParams {
                  (spacing {:.2} mm < 1.5 D_max; need fewer particles or a larger cell)",
                 self.particle_count(),
                 spacing * 1e3
+            )));
+        }
+        if geometry.start_height >= h {
+            return Err(Error::input(format!(
+                "start_packing_fraction: {phi0} needs a start height {:.4} m above the cell \
+                 height {h:.4} m (need a larger φ_start or a taller cell)",
+                geometry.start_height
+            )));
+        }
+        if geometry.final_height < 2.0 * d_max {
+            return Err(Error::input(format!(
+                "max_packing_fraction: {phi1} puts the piston at {:.4} m, below two diameters \
+                 (too many particles for the cell)",
+                geometry.final_height
             )));
         }
         Ok(())

@@ -115,7 +115,6 @@ const METRICS: &[&str] = &[
     "steps",
     "mean_time_step_s",
     "list_builds",
-    "wall_time_s",
 ];
 
 const SERIES: &[(&str, &str)] = &[
