@@ -73,7 +73,7 @@ pub struct BedArgs {
     /// Viscous time τ_v = m/γ (s, ms; bare number: s) [default: 0.1 s].
     #[arg(long, allow_hyphen_values = true)]
     viscous_time: Option<String>,
-    /// Time-step factor: Δt = factor/ω_max at the closest approach [default: 0.1].
+    /// Time-step factor: Δt = factor/ω_max at the closest approach [default: 0.2].
     #[arg(long, allow_hyphen_values = true)]
     time_step_factor: Option<String>,
     /// Rest after the expansion (s; bare number: s) [default: 0 s].

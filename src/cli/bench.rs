@@ -19,6 +19,8 @@ use crate::{Error, Result};
 enum Target {
     /// The DEM alignment stage (Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm).
     Align,
+    /// One full compression cycle of the mono-disperse bed (dry friction, defaults).
+    Bed,
 }
 
 /// `magopt bench` options.
@@ -27,20 +29,28 @@ pub struct BenchArgs {
     /// What to benchmark.
     #[arg(value_enum, default_value = "align")]
     target: Target,
-    /// Particle counts, comma-separated.
-    #[arg(long, default_value = "1000,10000", value_delimiter = ',')]
-    particles: Vec<String>,
+    /// Particle counts, comma-separated [default: 1000,10000 for align, 368 for bed].
+    #[arg(long, value_delimiter = ',')]
+    particles: Option<Vec<String>>,
     /// Thread counts, comma-separated.
     #[arg(long, default_value = "1,2", value_delimiter = ',')]
     threads: Vec<String>,
     /// Cap on alignment steps per run (the run stops earlier at A = 0.95).
     #[arg(long, default_value_t = 1000)]
     max_steps: usize,
+    /// bed: neighbour methods, comma-separated (exact, cells, verlet).
+    #[arg(long, default_value = "verlet,exact", value_delimiter = ',')]
+    neighbors: Vec<String>,
+    /// bed: piston speed (bare number: mm/s); faster means fewer steps per cycle.
+    #[arg(long, default_value = "5.63mm/s")]
+    velocity: String,
 }
 
 /// Runs the benchmark and prints one line per (N, threads).
 pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
-    let Target::Align = args.target;
+    if let Target::Bed = args.target {
+        return bed(args);
+    }
     let material = db.get("srfe12o19")?.clone();
     println!("align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, settled packing");
     println!(
@@ -55,7 +65,8 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
         "particle-steps/s",
         "peak RSS (MB)"
     );
-    for n_text in &args.particles {
+    let default = ["1000".to_string(), "10000".to_string()];
+    for n_text in args.particles.as_deref().unwrap_or(&default) {
         let n = count("particles", n_text)?;
         for t_text in &args.threads {
             let threads = count("threads", t_text)?;
@@ -83,6 +94,67 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
                 outcome.wall_time_s,
                 peak_rss_mb()
             );
+        }
+    }
+    Ok(())
+}
+
+/// `magopt bench bed`: one full cycle per (N, neighbour method, threads).
+fn bed(args: &BenchArgs) -> Result<()> {
+    use crate::models::bed::study::BedModel;
+    use crate::study::model::StudyModel;
+    let model = BedModel::cycle();
+    println!(
+        "bed: mono-disperse cycle (dry friction, φ 0.12 → 0.34 → 0.12), piston {}",
+        args.velocity
+    );
+    println!(
+        "{:>7} {:>9} {:>7} {:>9} {:>10} {:>10} {:>16} {:>11} {:>13}",
+        "N",
+        "neighbors",
+        "threads",
+        "steps",
+        "wall (s)",
+        "μs/step",
+        "particle-steps/s",
+        "F_max (N)",
+        "peak RSS (MB)"
+    );
+    let default = ["368".to_string()];
+    for n_text in args.particles.as_deref().unwrap_or(&default) {
+        for method in &args.neighbors {
+            for t_text in &args.threads {
+                let mut params = model.defaults();
+                for (name, value) in [
+                    ("particles", n_text),
+                    ("neighbors", method),
+                    ("piston_speed", &args.velocity),
+                ] {
+                    let v = model
+                        .spec(name)?
+                        .parse(&toml::Value::String(value.clone()))?;
+                    model.set(&mut params, name, &v)?;
+                }
+                params.snapshots = false;
+                model.validate(&params)?;
+                let threads = count("threads", t_text)?;
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| Error::Output(format!("thread pool: {e}")))?;
+                let o = pool.install(|| model.outcome(&params, 1, &|_| {}));
+                let n = params.particle_count();
+                println!(
+                    "{n:>7} {method:>9} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>11.3} {:>13.1}{}",
+                    o.steps,
+                    o.wall_time_s,
+                    1e6 * o.wall_time_s / o.steps as f64,
+                    (o.steps * n) as f64 / o.wall_time_s,
+                    o.max_force.unwrap_or(f64::NAN),
+                    peak_rss_mb(),
+                    o.failure.map(|r| format!("  FAILED: {r}")).unwrap_or_default()
+                );
+            }
         }
     }
     Ok(())
