@@ -6,9 +6,10 @@ use std::path::PathBuf;
 
 use super::align::preset;
 use super::command_line;
+use crate::models::bed::report::cycle_figures;
 use crate::models::bed::study::BedModel;
 use crate::models::bed::{BedOutcome, BedParams};
-use crate::output::atomic;
+use crate::output::{atomic, plot};
 use crate::study::model::{RunResult, StudyModel, Value};
 use crate::study::records::{self, RunRecord};
 use crate::{Error, Result};
@@ -212,6 +213,11 @@ pub fn run(args: &BedArgs, damper: bool) -> Result<()> {
         records::write_results(&model, &study, dir, &[record], &command_line())?;
         for s in &outcome.snapshots {
             s.write(&dir.join("snapshots"), &s.label)?;
+        }
+        if !damper && outcome.failure.is_none() {
+            for (stem, figure) in cycle_figures(&outcome) {
+                plot::render_png(&dir.join(format!("{stem}.png")), &figure)?;
+            }
         }
     }
     if args.json {

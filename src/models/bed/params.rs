@@ -433,6 +433,7 @@ impl BedParams {
         let d_max = self
             .species_list()
             .iter()
+            .filter(|s| s.fraction > 0.0)
             .map(|s| s.diameter)
             .fold(0.0, f64::max);
         let spacing = super::state::grid_spacing(self.particle_count(), w, h);
