@@ -126,7 +126,6 @@ fn snapshots_follow_the_contract() {
 fn damper_rests_on_the_bed_and_a_heavy_piston_crushes_it() {
     let mut p = small_bed();
     p.friction = Friction::Viscous;
-    p.record_interval = 2e-3;
     p.damper_time = 1.0;
     p.piston_mass = 0.05;
     let light = run_damper(&p, 1, &|_| {});

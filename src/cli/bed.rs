@@ -80,15 +80,19 @@ pub struct BedArgs {
     /// Rest after the expansion (s; bare number: s) [default: 0 s].
     #[arg(long, allow_hyphen_values = true)]
     final_rest: Option<String>,
-    /// Interval of the recorded series (s, ms; bare number: s) [default: 0.05 s bed, 2 ms damper].
+    /// Interval of the recorded series (s, ms; bare number: s) [default: 0.05 s].
     #[arg(long, allow_hyphen_values = true)]
     record_interval: Option<String>,
     /// Damper: piston mass (g, kg, mg; bare number: g) [default: 200 g].
     #[arg(long, allow_hyphen_values = true)]
     piston_mass: Option<String>,
-    /// Damper: duration of each free motion (s; bare number: s) [default: 2 s].
+    /// Damper: duration of the second free motion (s; bare number: s); the first ends at rest,
+    /// within 20 times this [default: 2 s].
     #[arg(long, allow_hyphen_values = true)]
     damper_time: Option<String>,
+    /// Damper: sampling interval of z(t) (s, ms; bare number: s) [default: 1 ms].
+    #[arg(long, allow_hyphen_values = true)]
+    damper_record_interval: Option<String>,
     /// Seed of the initial positions and velocities.
     #[arg(long, allow_hyphen_values = true, default_value_t = 1)]
     seed: u64,
@@ -123,6 +127,7 @@ impl BedArgs {
             ("record_interval", &self.record_interval),
             ("piston_mass", &self.piston_mass),
             ("damper_time", &self.damper_time),
+            ("damper_record_interval", &self.damper_record_interval),
         ];
         let bidisperse = self.mixing_ratio.is_some() || self.aspect_ratio.is_some();
         let preset = self

@@ -121,7 +121,7 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
                 let (t, z) = (sim.state.time - start, sim.state.piston);
                 sim.series.push("piston_z", t, z);
                 sim.series.push("piston_displacement", t, z - rest);
-                next_record = sim.state.time + sim.params.record_interval;
+                next_record = sim.state.time + sim.params.damper_record_interval;
             }
         }
     }

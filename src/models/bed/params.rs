@@ -179,6 +179,8 @@ pub struct BedParams {
     pub piston_mass: f64,
     /// Damper: duration of each of the two free motions, s (2 s).
     pub damper_time: f64,
+    /// Damper: sampling interval of z(t), s (1 ms).
+    pub damper_record_interval: f64,
 }
 
 impl BedParams {
@@ -225,6 +227,7 @@ impl BedParams {
             snapshots: true,
             piston_mass: 0.2,
             damper_time: 2.0,
+            damper_record_interval: 1e-3,
         }
     }
 
@@ -317,7 +320,7 @@ impl BedParams {
 
     /// Checks every value; the message names the field, its value and what is allowed.
     pub fn validate(&self) -> Result<()> {
-        let positive: [(&str, f64); 14] = [
+        let positive: [(&str, f64); 15] = [
             ("gap", self.gap),
             ("thickness", self.thickness),
             ("density", self.density),
@@ -331,6 +334,7 @@ impl BedParams {
             ("record_interval", self.record_interval),
             ("piston_mass", self.piston_mass),
             ("damper_time", self.damper_time),
+            ("damper_record_interval", self.damper_record_interval),
             ("big_diameter", self.reference_diameter()),
         ];
         for (name, x) in positive {

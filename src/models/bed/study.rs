@@ -94,6 +94,7 @@ const PARAMETERS: &[ParamSpec] = &[
     spec!("min_distance_ratio", K::Number),
     spec!("piston_mass", q(D::Mass, "g")),
     spec!("damper_time", q(D::Time, "s")),
+    spec!("damper_record_interval", q(D::Time, "s")),
 ];
 
 const METRICS: &[&str] = &[
@@ -209,12 +210,11 @@ impl StudyModel for BedModel {
         SERIES
     }
 
-    /// The spec's mono-disperse defaults; the damper adds viscous friction and a fine record.
+    /// The spec's mono-disperse defaults; the damper uses viscous friction.
     fn defaults(&self) -> BedParams {
         let mut p = BedParams::defaults();
         if self.damper {
             p.friction = Friction::Viscous;
-            p.record_interval = 2e-3;
         }
         p
     }
@@ -307,6 +307,7 @@ impl StudyModel for BedModel {
             "min_distance_ratio" => p.min_distance_ratio = x,
             "piston_mass" => p.piston_mass = x,
             "damper_time" => p.damper_time = x,
+            "damper_record_interval" => p.damper_record_interval = x,
             other => {
                 return Err(self
                     .spec(other)
