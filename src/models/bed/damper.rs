@@ -45,6 +45,7 @@ fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
         mass: p.piston_mass,
         gravity: p.gravity,
     };
+    let release = sim.state.time;
     if !fall(sim, &mut piston, None)? {
         return Err(format!(
             "the piston did not come to rest within {} s (speed ≥ {REST_SPEED} m/s or force \
@@ -63,6 +64,7 @@ fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
         sim.series
             .get("piston_force")
             .iter()
+            .filter(|&&(t, _)| t >= release)
             .map(|&(_, f)| f)
             .fold(0.0, f64::max),
     );

@@ -51,7 +51,7 @@ impl Series {
 pub struct BedOutcome {
     /// None if the run completed, else why it failed.
     pub failure: Option<String>,
-    /// Largest piston force over compression and expansion, N.
+    /// Largest piston force over compression and expansion (damper: after the release), N.
     pub max_force: Option<f64>,
     /// Piston force at maximum compression, N.
     pub force_at_max_compression: Option<f64>,
