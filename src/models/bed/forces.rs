@@ -5,6 +5,7 @@
 
 use nalgebra::Vector2;
 use rayon::prelude::*;
+use std::f64::consts::PI;
 
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
@@ -241,8 +242,6 @@ impl ForceField {
         }
     }
 }
-
-use std::f64::consts::PI;
 
 /// Running sums of one particle's pair loop (without the μ_i and 3μ0/4π factors).
 #[derive(Debug, Default)]

@@ -1,7 +1,7 @@
 //! The `bed` model (spec bed.md): a 2D bed of repelling disc magnets in a Hele-Shaw cell,
 //! compressed by a piston (one cycle) or loaded by a free-falling piston (the damper).
 //!
-//! - `params`: parameters with units and defaults, presets, validation;
+//! - `params`: parameters with units and defaults, presets; `validate`: their checks;
 //! - `state`: per-particle constants, geometry, the initial perturbed grid;
 //! - `forces`: B1 pairs, B2 walls, gravity, the B4 normal force (exact, cell or Verlet lists);
 //! - `integrator`: Störmer–Verlet with exact viscous and semi-implicit dry friction, Δt rule;
@@ -18,6 +18,7 @@ pub mod protocol;
 pub mod report;
 pub mod state;
 pub mod study;
+mod validate;
 
 pub use params::BedParams;
 
