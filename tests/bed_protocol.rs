@@ -266,3 +266,35 @@ fn bed_and_damper_run_from_the_command_line_and_study_files() {
     assert!(json.contains("\"damper_rest_height_m\":0."), "{json}");
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn shipped_bed_studies_parse_and_every_point_is_valid() {
+    use magopt::models::bed::study::BedModel;
+    use magopt::study::model::StudyModel;
+    use magopt::study::spec::Study;
+    let root = env!("CARGO_MANIFEST_DIR");
+    let mut checked = 0;
+    for dir in ["studies", "studies/quick"] {
+        for entry in std::fs::read_dir(format!("{root}/{dir}")).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            let model = if name.starts_with("bed-") {
+                BedModel::cycle()
+            } else if name.starts_with("damper") {
+                BedModel::damper()
+            } else {
+                continue;
+            };
+            let text = std::fs::read_to_string(&path).unwrap();
+            let study = Study::parse(&model, &text, &name).unwrap();
+            for point in study.points() {
+                let params = study.params_at(&model, &point).unwrap();
+                model
+                    .validate(&params)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+            }
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 17, "9 full and 8 quick study files");
+}
