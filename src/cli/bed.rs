@@ -150,13 +150,7 @@ impl BedArgs {
         let mut params = model.defaults();
         let mut values = Vec::new();
         for (name, text) in self.pairs() {
-            let option = match name {
-                "piston_speed" => "velocity",
-                "max_packing_fraction" => "packing-fraction",
-                "species_file" => "species",
-                other => other,
-            }
-            .replace('_', "-");
+            let option = option_of(name);
             let value = model
                 .spec(name)?
                 .parse(&toml::Value::String(text))
@@ -171,10 +165,49 @@ impl BedArgs {
                 })?;
             values.push((name.to_string(), value));
         }
-        model.validate(&params)?;
+        model.validate(&params).map_err(|e| {
+            let text = e.to_string();
+            match text.split_once(": ") {
+                Some((field, rest)) if OPTION_FIELDS.contains(&field) => {
+                    Error::input(format!("--{} ({field}): {rest}", option_of(field)))
+                }
+                _ => e,
+            }
+        })?;
         values.sort_by(|a, b| a.0.cmp(&b.0));
         Ok((params, values))
     }
+}
+
+/// Parameters that have a command-line option (validation messages name the option).
+const OPTION_FIELDS: &[&str] = &[
+    "particles",
+    "piston_speed",
+    "mixing_ratio",
+    "aspect_ratio",
+    "big_diameter",
+    "cutoff",
+    "list_radius",
+    "max_packing_fraction",
+    "start_packing_fraction",
+    "viscous_time",
+    "time_step_factor",
+    "final_rest",
+    "record_interval",
+    "piston_mass",
+    "damper_time",
+    "damper_record_interval",
+];
+
+/// The command-line option of a parameter (`piston_speed` → `velocity`).
+fn option_of(name: &str) -> String {
+    match name {
+        "piston_speed" => "velocity",
+        "max_packing_fraction" => "packing-fraction",
+        "species_file" => "species",
+        other => other,
+    }
+    .replace('_', "-")
 }
 
 /// `magopt bed` or `magopt damper`.
