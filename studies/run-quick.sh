@@ -12,3 +12,10 @@ for study in studies/quick/align-tau-*.toml; do
 done
 rm -rf results/quick/align-optimize-field
 "$bin" optimize studies/quick/align-optimize-field.toml --out results/quick/align-optimize-field
+# bed and damper quick studies (about a minute each on 2 cores) into results/bed/quick/
+for study in studies/quick/bed-*.toml studies/quick/damper.toml; do
+  name=$(basename "$study" .toml)
+  rm -rf "results/bed/quick/$name"
+  "$bin" sweep "$study" --out "results/bed/quick/$name"
+  "$bin" plot "results/bed/quick/$name"
+done

@@ -22,6 +22,8 @@ enum Target {
     /// The 2D structure analysis (Voronoi, n5/n6/n7, Ψ6, regularity) of --points jittered
     /// lattice points.
     Analyze,
+    /// One full compression cycle of the mono-disperse bed (dry friction, defaults).
+    Bed,
 }
 
 /// `magopt bench` options.
@@ -30,9 +32,9 @@ pub struct BenchArgs {
     /// What to benchmark.
     #[arg(value_enum, default_value = "align")]
     target: Target,
-    /// Particle counts, comma-separated.
-    #[arg(long, default_value = "1000,10000", value_delimiter = ',')]
-    particles: Vec<String>,
+    /// Particle counts, comma-separated [default: 1000,10000 for align, 368 for bed].
+    #[arg(long, value_delimiter = ',')]
+    particles: Option<Vec<String>>,
     /// Thread counts, comma-separated.
     #[arg(long, default_value = "1,2", value_delimiter = ',')]
     threads: Vec<String>,
@@ -42,12 +44,20 @@ pub struct BenchArgs {
     /// `bench analyze`: point counts, comma-separated.
     #[arg(long, default_value = "10000,100000", value_delimiter = ',')]
     points: Vec<String>,
+    /// bed: neighbour methods, comma-separated (exact, cells, verlet).
+    #[arg(long, default_value = "verlet,exact", value_delimiter = ',')]
+    neighbors: Vec<String>,
+    /// bed: piston speed (bare number: mm/s); faster means fewer steps per cycle.
+    #[arg(long, default_value = "5.63mm/s")]
+    velocity: String,
 }
 
 /// Runs the benchmark and prints one line per (N, threads).
 pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
-    if let Target::Analyze = args.target {
-        return run_analyze(args);
+    match args.target {
+        Target::Analyze => return run_analyze(args),
+        Target::Bed => return bed(args),
+        Target::Align => {}
     }
     let material = db.get("srfe12o19")?.clone();
     println!("align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, settled packing");
@@ -63,7 +73,8 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
         "particle-steps/s",
         "peak RSS (MB)"
     );
-    for n_text in &args.particles {
+    let default = ["1000".to_string(), "10000".to_string()];
+    for n_text in args.particles.as_deref().unwrap_or(&default) {
         let n = count("particles", n_text)?;
         for t_text in &args.threads {
             let threads = count("threads", t_text)?;
@@ -91,6 +102,67 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
                 outcome.wall_time_s,
                 peak_rss_mb()
             );
+        }
+    }
+    Ok(())
+}
+
+/// `magopt bench bed`: one full cycle per (N, neighbour method, threads).
+fn bed(args: &BenchArgs) -> Result<()> {
+    use crate::models::bed::study::BedModel;
+    use crate::study::model::StudyModel;
+    let model = BedModel::cycle();
+    println!(
+        "bed: mono-disperse cycle (dry friction, φ 0.12 → 0.34 → 0.12), piston {}",
+        args.velocity
+    );
+    println!(
+        "{:>7} {:>9} {:>7} {:>9} {:>10} {:>10} {:>16} {:>11} {:>13}",
+        "N",
+        "neighbors",
+        "threads",
+        "steps",
+        "wall (s)",
+        "μs/step",
+        "particle-steps/s",
+        "F_max (N)",
+        "peak RSS (MB)"
+    );
+    let default = ["368".to_string()];
+    for n_text in args.particles.as_deref().unwrap_or(&default) {
+        for method in &args.neighbors {
+            for t_text in &args.threads {
+                let mut params = model.defaults();
+                for (name, value) in [
+                    ("particles", n_text),
+                    ("neighbors", method),
+                    ("piston_speed", &args.velocity),
+                ] {
+                    let v = model
+                        .spec(name)?
+                        .parse(&toml::Value::String(value.clone()))?;
+                    model.set(&mut params, name, &v)?;
+                }
+                params.snapshots = false;
+                model.validate(&params)?;
+                let threads = count("threads", t_text)?;
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| Error::Output(format!("thread pool: {e}")))?;
+                let o = pool.install(|| model.outcome(&params, 1, &|_| {}));
+                let n = params.particle_count();
+                println!(
+                    "{n:>7} {method:>9} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>11.3} {:>13.1}{}",
+                    o.steps,
+                    o.wall_time_s,
+                    1e6 * o.wall_time_s / o.steps as f64,
+                    (o.steps * n) as f64 / o.wall_time_s,
+                    o.max_force.unwrap_or(f64::NAN),
+                    peak_rss_mb(),
+                    o.failure.map(|r| format!("  FAILED: {r}")).unwrap_or_default()
+                );
+            }
         }
     }
     Ok(())

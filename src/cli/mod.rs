@@ -3,6 +3,7 @@
 
 mod align;
 mod analyze;
+mod bed;
 mod bench;
 mod study;
 
@@ -33,6 +34,10 @@ enum Command {
     Align(align::AlignArgs),
     /// Find the field that aligns the powder fastest (the headline study).
     OptimizeField(align::OptimizeArgs),
+    /// One compression cycle of a bed of repelling magnets under a piston.
+    Bed(bed::BedArgs),
+    /// A free-falling piston onto a bed of repelling magnets (magnetic granular damper).
+    Damper(bed::BedArgs),
     /// Run a study file's grid × replicates in parallel; tables and provenance into --out.
     Sweep(study::SweepArgs),
     /// Optimize the free parameter(s) of a study file's [optimize] table.
@@ -93,6 +98,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Align(args) => align::run_align(&db, &args),
         Command::OptimizeField(args) => align::run_optimize(&db, &args),
+        Command::Bed(args) => bed::run(&args, false),
+        Command::Damper(args) => bed::run(&args, true),
         Command::Sweep(args) => study::sweep(db, &args),
         Command::Optimize(args) => study::optimize(db, &args),
         Command::Collect(args) => study::collect(db, &args),

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use super::{command_line, threads};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
+use crate::models::bed::study::BedModel;
 use crate::output::atomic;
 use crate::study::model::StudyModel;
 use crate::study::records;
@@ -85,6 +86,14 @@ macro_rules! with_model {
                 let $m = &AlignModel::new($db);
                 $body
             }
+            "bed" => {
+                let $m = &BedModel::cycle();
+                $body
+            }
+            "damper" => {
+                let $m = &BedModel::damper();
+                $body
+            }
             other => Err(Error::input(format!(
                 "{}: model: '{other}' is not available (available: {})",
                 $origin,
@@ -95,7 +104,7 @@ macro_rules! with_model {
 }
 
 /// The models a study file may name.
-const MODELS: &[&str] = &["align"];
+const MODELS: &[&str] = &["align", "bed", "damper"];
 
 fn bar() -> ProgressBar {
     let bar = ProgressBar::new(0);

@@ -1,0 +1,319 @@
+//! Parameters of the `bed` model (spec bed.md): geometry, particles, physics switches,
+//! protocol and numerics, all SI. [`BedParams::resolve`] turns them into the concrete cell and
+//! species of one run (presets, size scaling by √a, packing-fraction heights).
+
+use serde::{Deserialize, Serialize};
+
+use crate::units::MU0;
+
+/// Which geometry and species defaults apply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Preset {
+    /// N = 368 discs of D = 6 mm in W × H = 0.36 m × 0.45 m.
+    Mono,
+    /// N = 400, big D1 = 5 mm, small a·D1, W = 66 D1 = 0.33 m, H = 0.445 m.
+    Bidisperse,
+}
+
+/// Friction with the glass plates (B3, B5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Friction {
+    /// No friction (the relaxation stage is still damped).
+    None,
+    /// Viscous F = −γ v (B3).
+    Viscous,
+    /// Regularized Coulomb with the stick rule (B4, B5).
+    Dry,
+    /// Viscous and dry together.
+    Both,
+}
+
+impl Friction {
+    /// Whether the viscous law (B3) acts.
+    pub fn viscous(self) -> bool {
+        matches!(self, Friction::Viscous | Friction::Both)
+    }
+    /// Whether dry friction (B4–B5) acts.
+    pub fn dry(self) -> bool {
+        matches!(self, Friction::Dry | Friction::Both)
+    }
+}
+
+/// Order of the tilt-torque normal force (B4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TiltOrder {
+    /// cos θ_i sin θ_j (the spec's first-order law).
+    First,
+    /// Adds the (μ̂_i × μ̂_j) torque: sin 2θ → sin 2θ + (2/3) sin θ for equal discs.
+    Second,
+}
+
+/// Particle–wall law (B2 and its physical alternatives).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WallLaw {
+    /// (μ0 μ_i M_w / 2π) / w^3.5 with M_w = 2 μ_1/√D_1 unless `wall_strength` is set (B2).
+    Empirical,
+    /// Infinite row of touching reference magnets: μ0 μ_i (μ_1/D_1)/(π w³).
+    InfiniteRow,
+    /// Finite bar of the wall's length (the spec's closed form).
+    FiniteBar,
+}
+
+/// Neighbour handling of the pair sums (B1, B4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Neighbors {
+    /// Every pair (the reference).
+    Exact,
+    /// Cell list with cut-off r_c, rebuilt every step.
+    Cells,
+    /// Verlet list of radius r_v ≥ r_c, rebuilt on half-skin displacement.
+    Verlet,
+}
+
+/// How dry friction is integrated (see `integrator`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrictionScheme {
+    /// Stick rule + backward-Euler slip law (the production scheme).
+    SemiImplicit,
+    /// Forward-Euler B5 (the small-step reference; Δt also limited by m v_t/(μ_d N)).
+    Explicit,
+}
+
+/// One species: diameter and number fraction (same material and thickness for all).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Species {
+    /// Disc diameter D_s, m.
+    pub diameter: f64,
+    /// Number fraction (normalized over the species list).
+    pub fraction: f64,
+}
+
+/// Everything one `bed` or `damper` run needs. Optional fields fall back on the preset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BedParams {
+    /// Geometry and species defaults.
+    pub preset: Preset,
+    /// Particle count N [preset: 368 mono, 400 bi-disperse]; the cell scales by √(N/N_preset).
+    pub particles: Option<usize>,
+    /// Reference (big) diameter D_1, m [preset: 6 mm mono, 5 mm bi-disperse].
+    pub big_diameter: Option<f64>,
+    /// Mixing ratio R = fraction of small particles (bi-disperse), in [0, 1].
+    pub mixing_ratio: f64,
+    /// Aspect ratio a = D_2/D_1 of the bi-disperse species, in (0, 1].
+    pub aspect_ratio: f64,
+    /// Explicit species list (overrides the preset's species); the first is the reference.
+    pub species: Option<Vec<Species>>,
+    /// Cell width W for the preset's N, m [preset: 0.36 m mono, 66 D_1 bi-disperse].
+    pub width: Option<f64>,
+    /// Cell height H for the preset's N, m [preset: 0.45 m mono, 0.445 m bi-disperse].
+    pub height: Option<f64>,
+    /// Gap E between the glass plates, m (3.1 mm); must exceed the thickness.
+    pub gap: f64,
+    /// Disc thickness ε, m (3 mm).
+    pub thickness: f64,
+    /// Density ρ, kg/m³ (7368).
+    pub density: f64,
+    /// Remanence B_r, T (1.3).
+    pub remanence: f64,
+    /// Static friction coefficient μ_e (0.6).
+    pub static_friction: f64,
+    /// Dynamic friction coefficient μ_d (0.45).
+    pub dynamic_friction: f64,
+    /// Gravity g, m/s² (9.8); 0 is the no-gravity variant.
+    pub gravity: f64,
+    /// Friction model.
+    pub friction: Friction,
+    /// Tilt-torque order of the normal force (B4).
+    pub tilt_order: TiltOrder,
+    /// Viscous time τ_v = m/γ, s (0.1 s, B3); also damps every relaxation.
+    pub viscous_time: f64,
+    /// Threshold speed v_t of the regularized Coulomb law, m/s (1e-6, B5).
+    pub threshold_speed: f64,
+    /// Dry-friction integration scheme (semi-implicit; explicit is the reference).
+    pub friction_scheme: FrictionScheme,
+    /// Particle–wall law.
+    pub wall_law: WallLaw,
+    /// Wall strength M_w of the empirical law, A·m^1.5 [default 2 μ_1/√D_1].
+    pub wall_strength: Option<f64>,
+    /// Piston speed V_c during compression and expansion, m/s (5.63 mm/s).
+    pub piston_speed: f64,
+    /// Packing fraction at the start of compression (piston at H0) (0.12).
+    pub start_packing_fraction: f64,
+    /// Packing fraction at maximum compression (piston at H_f) (0.34).
+    pub max_packing_fraction: f64,
+    /// Duration of the piston's exponentially slowing descent to H0, s (3 s).
+    pub relaxation_time: f64,
+    /// Decay time of that descent, s (0.5 s).
+    pub piston_decay_time: f64,
+    /// Rest at H0 after the descent, before compression, s (1 s).
+    pub settle_time: f64,
+    /// Optional rest after the expansion, s (0).
+    pub final_rest: f64,
+    /// Standard deviation of each initial velocity component, m/s (1e-2).
+    pub initial_speed: f64,
+    /// Neighbour strategy.
+    pub neighbors: Neighbors,
+    /// Cut-off r_c in units of D_1 (7.13, the source's tuned value).
+    pub cutoff: f64,
+    /// Verlet list radius r_v in units of D_1 (11.26, the source's tuned value).
+    pub list_radius: f64,
+    /// Δt = factor / ω_max, ω_max² the stiffest repulsion (pair or wall) at the closest
+    /// approach over the lightest mass (0.2; the piston force at maximum compression is converged to < 1e-4 there, see tests/bed_physics.rs); the step is chosen anew every step.
+    pub time_step_factor: f64,
+    /// Upper bound on Δt, s (1 ms).
+    pub max_time_step: f64,
+    /// Interval between recorded series points, s (0.05 s).
+    pub record_interval: f64,
+    /// Flag a run when two discs come closer than this fraction of their mean diameter (0.9).
+    pub min_distance_ratio: f64,
+    /// Collect snapshots (start of compression, maximum compression, end).
+    pub snapshots: bool,
+    /// Damper: piston mass, kg (200 g; a piston much heavier than the bed can carry crushes it).
+    pub piston_mass: f64,
+    /// Damper: duration of each of the two free motions, s (2 s).
+    pub damper_time: f64,
+    /// Damper: sampling interval of z(t), s (1 ms).
+    pub damper_record_interval: f64,
+}
+
+impl BedParams {
+    /// The documented defaults (mono-disperse cycle).
+    pub fn defaults() -> Self {
+        Self {
+            preset: Preset::Mono,
+            particles: None,
+            big_diameter: None,
+            mixing_ratio: 0.0,
+            aspect_ratio: 0.5,
+            species: None,
+            width: None,
+            height: None,
+            gap: 3.1e-3,
+            thickness: 3.0e-3,
+            density: 7368.0,
+            remanence: 1.3,
+            static_friction: 0.6,
+            dynamic_friction: 0.45,
+            gravity: 9.8,
+            friction: Friction::Dry,
+            tilt_order: TiltOrder::First,
+            viscous_time: 0.1,
+            threshold_speed: 1e-6,
+            friction_scheme: FrictionScheme::SemiImplicit,
+            wall_law: WallLaw::Empirical,
+            wall_strength: None,
+            piston_speed: 5.63e-3,
+            start_packing_fraction: 0.12,
+            max_packing_fraction: 0.34,
+            relaxation_time: 3.0,
+            piston_decay_time: 0.5,
+            settle_time: 1.0,
+            final_rest: 0.0,
+            initial_speed: 1e-2,
+            neighbors: Neighbors::Verlet,
+            cutoff: 7.13,
+            list_radius: 11.26,
+            time_step_factor: 0.2,
+            max_time_step: 1e-3,
+            record_interval: 0.05,
+            min_distance_ratio: 0.9,
+            snapshots: true,
+            piston_mass: 0.2,
+            damper_time: 2.0,
+            damper_record_interval: 1e-3,
+        }
+    }
+
+    /// The species list of this run (reference first), normalized fractions.
+    pub fn species_list(&self) -> Vec<Species> {
+        let d1 = self.reference_diameter();
+        let list = match (&self.species, self.preset) {
+            (Some(list), _) => list.clone(),
+            (None, Preset::Mono) => vec![Species {
+                diameter: d1,
+                fraction: 1.0,
+            }],
+            (None, Preset::Bidisperse) => vec![
+                Species {
+                    diameter: d1,
+                    fraction: 1.0 - self.mixing_ratio,
+                },
+                Species {
+                    diameter: self.aspect_ratio * d1,
+                    fraction: self.mixing_ratio,
+                },
+            ],
+        };
+        let total: f64 = list.iter().map(|s| s.fraction).sum();
+        list.into_iter()
+            .map(|s| Species {
+                diameter: s.diameter,
+                fraction: s.fraction / total,
+            })
+            .collect()
+    }
+
+    /// D_1: the explicit big diameter, else the first listed species, else the preset's.
+    pub fn reference_diameter(&self) -> f64 {
+        match (self.big_diameter, &self.species, self.preset) {
+            (Some(d), ..) => d,
+            (None, Some(list), _) if !list.is_empty() => list[0].diameter,
+            (None, _, Preset::Mono) => 6e-3,
+            (None, _, Preset::Bidisperse) => 5e-3,
+        }
+    }
+
+    /// The preset's particle count (the size-scaling reference).
+    pub fn reference_particles(&self) -> usize {
+        match self.preset {
+            Preset::Mono => 368,
+            Preset::Bidisperse => 400,
+        }
+    }
+
+    /// Particle count N of this run.
+    pub fn particle_count(&self) -> usize {
+        self.particles.unwrap_or(self.reference_particles())
+    }
+
+    /// Cell (W, H), m, scaled by √(N/N_preset) (packing fraction unchanged).
+    pub fn cell(&self) -> (f64, f64) {
+        let d1 = self.reference_diameter();
+        let (w, h) = match self.preset {
+            Preset::Mono => (0.36, 0.45),
+            Preset::Bidisperse => (66.0 * d1, 0.445),
+        };
+        let scale = (self.particle_count() as f64 / self.reference_particles() as f64).sqrt();
+        (
+            self.width.unwrap_or(w) * scale,
+            self.height.unwrap_or(h) * scale,
+        )
+    }
+
+    /// Dipole moment μ = B_r V/μ0 of a disc of diameter d, A·m².
+    pub fn moment(&self, d: f64) -> f64 {
+        self.remanence * self.disc_volume(d) / MU0
+    }
+
+    /// Mass ρ V of a disc of diameter d, kg.
+    pub fn mass(&self, d: f64) -> f64 {
+        self.density * self.disc_volume(d)
+    }
+
+    fn disc_volume(&self, d: f64) -> f64 {
+        std::f64::consts::PI * d * d * self.thickness / 4.0
+    }
+
+    /// Wall strength M_w of the empirical law (B2), A·m^1.5.
+    pub fn wall_strength(&self) -> f64 {
+        let d1 = self.reference_diameter();
+        self.wall_strength
+            .unwrap_or(2.0 * self.moment(d1) / d1.sqrt())
+    }
+}

@@ -1,0 +1,161 @@
+//! Validation of [`BedParams`]: every message names the field, its value and what is allowed
+//! (bad input is exit code 2 at the command line).
+
+use super::params::BedParams;
+use super::state::{grid_spacing, Geometry};
+use crate::{Error, Result};
+
+impl BedParams {
+    /// Checks every value; the message names the field, its value and what is allowed.
+    pub fn validate(&self) -> Result<()> {
+        let positive: [(&str, f64); 15] = [
+            ("gap", self.gap),
+            ("thickness", self.thickness),
+            ("density", self.density),
+            ("remanence", self.remanence),
+            ("viscous_time", self.viscous_time),
+            ("threshold_speed", self.threshold_speed),
+            ("piston_speed", self.piston_speed),
+            ("piston_decay_time", self.piston_decay_time),
+            ("time_step_factor", self.time_step_factor),
+            ("max_time_step", self.max_time_step),
+            ("record_interval", self.record_interval),
+            ("piston_mass", self.piston_mass),
+            ("damper_time", self.damper_time),
+            ("damper_record_interval", self.damper_record_interval),
+            ("big_diameter", self.reference_diameter()),
+        ];
+        for (name, x) in positive {
+            if !(x > 0.0 && x.is_finite()) {
+                return Err(bad(name, x, "need > 0"));
+            }
+        }
+        let non_negative = [
+            ("static_friction", self.static_friction),
+            ("dynamic_friction", self.dynamic_friction),
+            ("gravity", self.gravity),
+            ("relaxation_time", self.relaxation_time),
+            ("settle_time", self.settle_time),
+            ("final_rest", self.final_rest),
+            ("initial_speed", self.initial_speed),
+        ];
+        for (name, x) in non_negative {
+            if !(x >= 0.0 && x.is_finite()) {
+                return Err(bad(name, x, "need ≥ 0"));
+            }
+        }
+        if self.gap <= self.thickness {
+            return Err(Error::input(format!(
+                "gap: E = {} m is not allowed (need E > thickness ε = {} m: the tilt geometry \
+                 of the dry friction needs clearance)",
+                self.gap, self.thickness
+            )));
+        }
+        if !(0.0..=1.0).contains(&self.mixing_ratio) {
+            return Err(bad("mixing_ratio", self.mixing_ratio, "need 0 ≤ R ≤ 1"));
+        }
+        if !(self.aspect_ratio > 0.0 && self.aspect_ratio <= 1.0) {
+            return Err(bad("aspect_ratio", self.aspect_ratio, "need 0 < a ≤ 1"));
+        }
+        if !(self.min_distance_ratio > 0.0 && self.min_distance_ratio < 1.0) {
+            return Err(bad(
+                "min_distance_ratio",
+                self.min_distance_ratio,
+                "need 0 < ratio < 1",
+            ));
+        }
+        if !(self.cutoff > 0.0 && self.list_radius >= self.cutoff) {
+            return Err(Error::input(format!(
+                "cutoff {} and list_radius {}: need 0 < r_c ≤ r_v (in D_1)",
+                self.cutoff, self.list_radius
+            )));
+        }
+        self.validate_species()?;
+        self.validate_packing()
+    }
+
+    fn validate_species(&self) -> Result<()> {
+        if let Some(list) = &self.species {
+            if list.is_empty() {
+                return Err(Error::input(
+                    "species: the list is empty (need ≥ 1 species)",
+                ));
+            }
+            for (k, s) in list.iter().enumerate() {
+                if !(s.diameter > 0.0 && s.diameter.is_finite()) {
+                    return Err(bad(
+                        &format!("species[{k}].diameter"),
+                        s.diameter,
+                        "need > 0",
+                    ));
+                }
+                if !(s.fraction >= 0.0 && s.fraction.is_finite()) {
+                    return Err(bad(
+                        &format!("species[{k}].fraction"),
+                        s.fraction,
+                        "need ≥ 0",
+                    ));
+                }
+            }
+            if list.iter().all(|s| s.fraction == 0.0) {
+                return Err(Error::input("species: all number fractions are 0"));
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_packing(&self) -> Result<()> {
+        let hexagonal = std::f64::consts::PI / (2.0 * 3f64.sqrt());
+        let (phi0, phi1) = (self.start_packing_fraction, self.max_packing_fraction);
+        if !(phi1 > 0.0 && phi1 < hexagonal) {
+            return Err(bad(
+                "max_packing_fraction",
+                phi1,
+                "need 0 < φ < 0.9069 (hexagonal close packing)",
+            ));
+        }
+        if !(phi0 > 0.0 && phi0 < phi1) {
+            return Err(Error::input(format!(
+                "start_packing_fraction: {phi0} is not allowed (need 0 < φ_start < \
+                 max_packing_fraction = {phi1})"
+            )));
+        }
+        let geometry = Geometry::of(self);
+        let (w, h) = (geometry.width, geometry.height);
+        let d_max = self
+            .species_list()
+            .iter()
+            .filter(|s| s.fraction > 0.0)
+            .map(|s| s.diameter)
+            .fold(0.0, f64::max);
+        let spacing = grid_spacing(self.particle_count(), w, h);
+        if spacing < 1.5 * d_max {
+            return Err(Error::input(format!(
+                "particles: {} do not fit a starting grid in the {w:.3} m × {h:.3} m cell \
+                 (spacing {:.2} mm < 1.5 D_max; need fewer particles or a larger cell)",
+                self.particle_count(),
+                spacing * 1e3
+            )));
+        }
+        if geometry.start_height >= h {
+            return Err(Error::input(format!(
+                "start_packing_fraction: {phi0} needs a start height {:.4} m above the cell \
+                 height {h:.4} m (need a larger φ_start or a taller cell)",
+                geometry.start_height
+            )));
+        }
+        if geometry.final_height < 2.0 * d_max {
+            return Err(Error::input(format!(
+                "max_packing_fraction: {phi1} puts the piston at {:.4} m, below two diameters \
+                 (too many particles for the cell)",
+                geometry.final_height
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// "name: value is not allowed (why)".
+fn bad(name: &str, value: f64, allowed: &str) -> Error {
+    Error::input(format!("{name}: {value} is not allowed ({allowed})"))
+}

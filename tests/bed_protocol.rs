@@ -1,0 +1,300 @@
+//! The `bed` protocol and command line: geometry rules (packing-fraction heights, bi-disperse
+//! H_f, √a size scaling), a full small cycle (hysteresis with dry friction, none without),
+//! snapshots in the agreed format, the damper, bad input and study files.
+
+use std::process::Command;
+
+use magopt::models::bed::damper::run_damper;
+use magopt::models::bed::params::{BedParams, Friction, Preset};
+use magopt::models::bed::protocol::run_cycle;
+use magopt::models::bed::state::Geometry;
+use magopt::output::table::{read_parquet, ColumnData};
+
+fn small_bed() -> BedParams {
+    let mut p = BedParams::defaults();
+    p.particles = Some(24);
+    p.piston_speed = 0.02;
+    p.relaxation_time = 1.0;
+    p.piston_decay_time = 0.2;
+    p.settle_time = 0.5;
+    p
+}
+
+#[test]
+fn heights_follow_the_packing_fraction_and_the_bidisperse_rule() {
+    let mut p = BedParams::defaults();
+    p.preset = Preset::Bidisperse;
+    let g0 = Geometry::of(&p);
+    let d1 = 5e-3;
+    // H_r = 14 D1 gives φ = 0.34 with N = 400 in W = 66 D1 (to the rounding of the source)
+    assert!(
+        (g0.final_height / (14.0 * d1) - 1.0).abs() < 0.01,
+        "{}",
+        g0.final_height
+    );
+    for (r, a) in [(0.5, 0.5), (0.5, 0.75), (1.0, 0.6)] {
+        p.mixing_ratio = r;
+        p.aspect_ratio = a;
+        let g = Geometry::of(&p);
+        let expected = (1.0 + r * (a * a - 1.0)) * g0.final_height;
+        assert!(
+            (g.final_height / expected - 1.0).abs() < 1e-12,
+            "R = {r}, a = {a}"
+        );
+    }
+    // size scaling: 4× the particles doubles W and H; φ unchanged
+    let mut q = BedParams::defaults();
+    let g = Geometry::of(&q);
+    q.particles = Some(4 * 368);
+    let g4 = Geometry::of(&q);
+    assert!((g4.width / g.width - 2.0).abs() < 1e-12);
+    assert!((g4.final_height / g.final_height - 2.0).abs() < 1e-12);
+}
+
+#[test]
+fn dry_friction_gives_hysteresis_and_no_friction_none() {
+    let mut p = small_bed();
+    let dry = run_cycle(&p, 2, &|_| {});
+    assert!(dry.failure.is_none(), "{:?}", dry.failure);
+    assert!((dry.max_packing_fraction - 0.34).abs() < 1e-12);
+    assert!((dry.final_packing_fraction - 0.12).abs() < 1e-12);
+    assert!(dry.closest_pair > 0.9 && dry.closest_wall > 0.0);
+    // compression branch above the expansion branch at the same piston height
+    let height = dry.series.get("piston_height");
+    let force = dry.series.get("piston_force");
+    let g = Geometry::of(&p);
+    let mid = 0.5 * (g.start_height + g.final_height);
+    let t_max = height
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|h| h.0)
+        .unwrap();
+    let near = |compressing: bool| {
+        let k = (0..height.len())
+            .filter(|&k| (height[k].0 < t_max) == compressing && height[k].1 < g.start_height)
+            .min_by(|&a, &b| {
+                (height[a].1 - mid)
+                    .abs()
+                    .total_cmp(&(height[b].1 - mid).abs())
+            })
+            .unwrap();
+        force[k].1
+    };
+    assert!(
+        near(true) > near(false),
+        "{} vs {}",
+        near(true),
+        near(false)
+    );
+    assert!(dry.cycle_work.unwrap() > 0.0);
+    p.friction = Friction::None;
+    let none = run_cycle(&p, 2, &|_| {});
+    assert!(none.failure.is_none(), "{:?}", none.failure);
+    let ratio = none.cycle_work.unwrap().abs() / dry.cycle_work.unwrap();
+    assert!(
+        ratio < 0.1,
+        "frictionless cycle dissipates {ratio} of the dry one"
+    );
+}
+
+#[test]
+fn snapshots_follow_the_contract() {
+    let p = small_bed();
+    let o = run_cycle(&p, 1, &|_| {});
+    let labels: Vec<&str> = o.snapshots.iter().map(|s| s.label.as_str()).collect();
+    assert_eq!(labels, ["compression-start", "max-compression", "end"]);
+    let dir = std::env::temp_dir().join(format!("magopt-bed-snap-{}", std::process::id()));
+    o.snapshots[1].write(&dir, "max").unwrap();
+    let table = read_parquet(&dir.join("max.parquet")).unwrap();
+    for name in ["x", "y", "diameter", "vx", "vy", "force"] {
+        assert!(
+            matches!(table.column(name), Some(ColumnData::F64(v)) if v.len() == 24),
+            "{name}"
+        );
+    }
+    assert!(matches!(table.column("species"), Some(ColumnData::I64(_))));
+    let xyz = std::fs::read_to_string(dir.join("max.xyz")).unwrap();
+    let lines: Vec<&str> = xyz.lines().collect();
+    assert_eq!(lines[0], "24");
+    assert!(lines[1].contains("Properties=species:I:1:pos:R:3:diameter:R:1:velo:R:3:force:R:1"));
+    assert_eq!(lines.len(), 26);
+    assert_eq!(lines[2].split_whitespace().count(), 9);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn damper_rests_on_the_bed_and_a_heavy_piston_crushes_it() {
+    let mut p = small_bed();
+    p.friction = Friction::Viscous;
+    p.damper_time = 1.0;
+    p.piston_mass = 0.05;
+    let light = run_damper(&p, 1, &|_| {});
+    assert!(light.failure.is_none(), "{:?}", light.failure);
+    let z = light.series.get("piston_displacement");
+    assert!(
+        (z[0].1 - 0.2 * 6e-3).abs() < 1e-4,
+        "starts 0.2 D above rest: {}",
+        z[0].1
+    );
+    // a damped oscillation about the rest height: the last quarter swings less than the first
+    let swing = |part: &[(f64, f64)]| part.iter().map(|p| p.1.abs()).fold(0.0, f64::max);
+    let quarter = z.len() / 4;
+    assert!(
+        swing(&z[3 * quarter..]) < swing(&z[..quarter]),
+        "{} vs {}",
+        swing(&z[3 * quarter..]),
+        swing(&z[..quarter])
+    );
+    p.piston_mass = 20.0;
+    let heavy = run_damper(&p, 1, &|_| {});
+    assert!(
+        heavy
+            .failure
+            .as_deref()
+            .is_some_and(|r| r.contains("crushed")),
+        "{:?}",
+        heavy.failure
+    );
+}
+
+fn magopt(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_magopt"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_code_2() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["--packing-fraction", "0.95"], "max_packing_fraction"),
+        (&["--packing-fraction", "0.1"], "start_packing_fraction"),
+        (&["--velocity", "0"], "piston_speed"),
+        (&["--velocity", "-3mm/s"], "piston_speed"),
+        (&["--mixing-ratio", "1.5"], "mixing_ratio"),
+        (&["--aspect-ratio", "0"], "aspect_ratio"),
+        (&["--aspect-ratio", "1.2"], "aspect_ratio"),
+        (&["--big-diameter", "40mm"], "particles"),
+        (&["--velocity", "5 kOe"], "--velocity"),
+        (&["--species", "/nonexistent.toml"], "--species"),
+    ];
+    for (args, needle) in cases {
+        let mut full = vec!["bed"];
+        full.extend_from_slice(args);
+        let (code, _, err) = magopt(&full);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    let mut p = BedParams::defaults();
+    p.gap = 3e-3;
+    let e = p.validate().unwrap_err().to_string();
+    assert!(e.starts_with("gap:") && e.contains("thickness"), "{e}");
+}
+
+#[test]
+fn bed_and_damper_run_from_the_command_line_and_study_files() {
+    let dir = std::env::temp_dir().join(format!("magopt-bed-cli-{}", std::process::id()));
+    let out = dir.join("run");
+    let (code, json, err) = magopt(&[
+        "bed",
+        "--particles",
+        "12",
+        "--velocity",
+        "50mm/s",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    for key in [
+        "max_piston_force_N",
+        "final_packing_fraction",
+        "mean_distance_start_D",
+        "mean_distance_min_D",
+        "mean_distance_end_D",
+        "steps",
+        "wall_time_s",
+    ] {
+        assert!(v[key].is_number(), "{key}: {json}");
+    }
+    for file in [
+        "runs.parquet",
+        "series.parquet",
+        "snapshots/end.xyz",
+        "snapshots/end.parquet",
+    ] {
+        assert!(out.join(file).exists(), "{file}");
+    }
+    let species = dir.join("species.toml");
+    std::fs::write(&species, "[[species]]\ndiameter = \"6mm\"\nfraction = 0.7\n[[species]]\ndiameter = 4.5\nfraction = 0.3\n").unwrap();
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        format!(
+            "name = \"t\"\nmodel = \"bed\"\nreplicates = 1\nseed = 1\n[base]\nparticles = 12\npiston_speed = \"50mm/s\"\nspecies_file = {:?}\n[sweep]\nfriction = [\"dry\", \"viscous\"]\n",
+            species.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let (code, _, err) = magopt(&[
+        "sweep",
+        study.to_str().unwrap(),
+        "--out",
+        dir.join("sweep").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let runs = read_parquet(&dir.join("sweep/runs.parquet")).unwrap();
+    assert_eq!(runs.n_rows(), 2);
+    let (code, json, err) = magopt(&[
+        "damper",
+        "--particles",
+        "12",
+        "--damper-time",
+        "0.5",
+        "--piston-mass",
+        "20g",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(json.contains("\"damper_rest_height_m\":0."), "{json}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn shipped_bed_studies_parse_and_every_point_is_valid() {
+    use magopt::models::bed::study::BedModel;
+    use magopt::study::model::StudyModel;
+    use magopt::study::spec::Study;
+    let root = env!("CARGO_MANIFEST_DIR");
+    let mut checked = 0;
+    for dir in ["studies", "studies/quick"] {
+        for entry in std::fs::read_dir(format!("{root}/{dir}")).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            let model = if name.starts_with("bed-") {
+                BedModel::cycle()
+            } else if name.starts_with("damper") {
+                BedModel::damper()
+            } else {
+                continue;
+            };
+            let text = std::fs::read_to_string(&path).unwrap();
+            let study = Study::parse(&model, &text, &name).unwrap();
+            for point in study.points() {
+                let params = study.params_at(&model, &point).unwrap();
+                model
+                    .validate(&params)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+            }
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 17, "9 full and 8 quick study files");
+}
