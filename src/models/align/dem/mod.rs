@@ -223,6 +223,7 @@ impl<'a> Run<'a> {
         }
         let stage = Stage {
             contacts: &self.contacts,
+            law: &self.law,
             radius: &self.packing.radius,
             force: &self.force,
             torque: &self.torque,
