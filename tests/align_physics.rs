@@ -195,14 +195,14 @@ fn alignment_converges_in_time_step_and_friction_regularization() {
             out.alignment_time_90_s.unwrap(),
         )
     };
+    // In a packed bed τ changes by 0.1–0.3 % per halving of dt without a clean order (contacts
+    // enter and leave between steps; e.g. 39.41, 39.48, 39.56, 39.61 s for 0.1 … 0.0125 rad, the
+    // same with a 100× tighter solver tolerance), so the bed test asserts the size of the
+    // change; the order of the scheme is measured on a free particle (test above).
     let steps: Vec<f64> = [0.1, 0.05, 0.025].iter().map(|&s| tau(s, 1e-2).0).collect();
-    let coarse = (steps[0] - steps[1]).abs();
-    let fine = (steps[1] - steps[2]).abs();
-    assert!(fine < 0.01 * steps[2], "dt: {steps:?}");
-    assert!(
-        fine < coarse,
-        "dt refinement must shrink the change: {steps:?}"
-    );
+    for pair in steps.windows(2) {
+        assert!((pair[0] - pair[1]).abs() < 0.01 * steps[2], "dt: {steps:?}");
+    }
     let regs: Vec<f64> = [1e-1, 1e-2, 1e-3].iter().map(|&r| tau(0.05, r).1).collect();
     assert!(
         (regs[1] - regs[2]).abs() < 0.01 * regs[2],
@@ -257,4 +257,34 @@ fn ensemble_starts_isotropic_and_aligns_fully_below_and_above_h_k() {
         assert!((curve.alignment(0.0) - 0.5).abs() < 1e-9);
         assert!(curve.alignment(200.0) > 0.999_99);
     }
+}
+
+/// The settling rest criterion (a numerical device, spec align.md stage 3) converges: tightening
+/// the root-mean-square criterion 3× moves the packing fraction of the released bed by far less
+/// than the difference between two replicate seeds, and the rms and max criteria agree as well.
+#[test]
+fn settled_packing_fraction_converges_in_the_rest_criterion() {
+    use magopt::models::align::RestMeasure;
+    let phi = |seed: u64, measure: RestMeasure, rest_speed: f64| {
+        let mut params = sr_ferrite(40.0);
+        params.particles = 300;
+        params.numerics.rest_measure = measure;
+        params.numerics.rest_speed = rest_speed;
+        Packing::generate(&params.packing(), seed)
+            .unwrap()
+            .packing_fraction()
+    };
+    let mut tight = Vec::new();
+    let mut errors = Vec::new();
+    for seed in [1, 2] {
+        let reference = phi(seed, RestMeasure::Rms, 3e-3);
+        errors.push((phi(seed, RestMeasure::Rms, 1e-2) - reference).abs());
+        errors.push((phi(seed, RestMeasure::Max, 1e-2) - reference).abs());
+        tight.push(reference);
+    }
+    let replicate_gap = (tight[0] - tight[1]).abs();
+    assert!(
+        errors.iter().all(|&e| e < 0.25 * replicate_gap),
+        "criterion changes {errors:?} against replicate gap {replicate_gap} ({tight:?})"
+    );
 }

@@ -14,7 +14,7 @@ pub mod study;
 
 use serde::Serialize;
 
-pub use params::{AlignParams, Numerics, PressureMode};
+pub use params::{AlignParams, Numerics, PressureMode, RestMeasure};
 
 /// Which implementation evaluates a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]

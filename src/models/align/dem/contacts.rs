@@ -38,10 +38,6 @@ pub struct Contact {
     pub overlap: f64,
     /// Hertz prefactor k with F_n = k δ^{3/2}: k = (4/3) E*/E √(R*/R_av).
     pub hertz: f64,
-    /// Coulomb coefficient μ of this contact.
-    pub friction: f64,
-    /// Partner radius (0 for walls): its surface velocity at the contact is v_j − R_j ω_j × e.
-    pub partner_radius: f64,
 }
 
 impl Contact {
@@ -101,8 +97,6 @@ impl ContactLaw {
                     normal: d / dist,
                     overlap,
                     hertz: self.hertz_prefactor(r, Some(radii[ju])),
-                    friction: self.friction,
-                    partner_radius: radii[ju],
                 });
             }
         }
@@ -114,10 +108,17 @@ impl ContactLaw {
                     normal,
                     overlap,
                     hertz: self.hertz_prefactor(r, None),
-                    friction: self.wall_friction,
-                    partner_radius: 0.0,
                 });
             }
+        }
+    }
+
+    /// Coulomb coefficient μ of a contact (particle pair or wall).
+    pub fn friction_of(&self, c: &Contact) -> f64 {
+        if c.partner == WALL {
+            self.wall_friction
+        } else {
+            self.friction
         }
     }
 
@@ -245,8 +246,6 @@ mod tests {
             normal: Vector3::x(),
             overlap: delta,
             hertz: law.hertz_prefactor(r1, Some(r2)),
-            friction: 0.0,
-            partner_radius: r2,
         };
         let e_star = law.effective_modulus;
         let r_star = 1.0 / (1.0 / r1 + 1.0 / r2);

@@ -223,6 +223,7 @@ impl<'a> Run<'a> {
         }
         let stage = Stage {
             contacts: &self.contacts,
+            law: &self.law,
             radius: &self.packing.radius,
             force: &self.force,
             torque: &self.torque,
@@ -292,10 +293,6 @@ impl<'a> Run<'a> {
             .zip(radius)
             .map(|(p, r)| p.z + r)
             .fold(0.0, f64::max);
-        let solid: f64 = radius
-            .iter()
-            .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
-            .sum();
         let c = &self.packing.container;
         AlignOutcome {
             status,
@@ -305,7 +302,7 @@ impl<'a> Run<'a> {
             series: thin(series, SERIES_POINTS),
             steps,
             time_step_s: self.dt * scales.time,
-            packing_fraction: Some(solid / (c.lx * c.ly * top)),
+            packing_fraction: Some(packing::packing_fraction(radius, &self.position, c)),
             contacts: Some(self.contacts.touching()),
             bed_height_m: Some(top * scales.length),
             applied_force_n: Some(self.applied_force * scales.force),

@@ -4,13 +4,14 @@
 //!
 //! Both stages minimize a potential energy (no friction) with FIRE, a standard relaxation
 //! method for granular packings: numerical devices whose product is a valid resting packing, not
-//! dynamics that are measured. Rest is judged by the largest net force, which in the overdamped
-//! model is the speed a particle would move at (γ = 1 in reduced units).
+//! dynamics that are measured. Rest is judged by the net forces, which in the overdamped model
+//! are the speeds the particles would move at (γ = 1 in reduced units).
 //! - Overlap removal: harmonic repulsion F = δ until the largest overlap < `overlap_tolerance`.
-//! - Settling: Hertz contacts plus a downward `settling_force` until no net force exceeds
-//!   `rest_speed` × the settling force (an overdamped particle would move slower than that
-//!   fraction of its free-fall speed); then the force is switched off and the overlaps
-//!   relax under Hertz repulsion until the largest is below `overlap_tolerance`.
+//! - Settling: Hertz contacts plus a downward `settling_force` until the largest (or, with
+//!   `rest_measure = rms`, the root-mean-square) net force is below `rest_speed` × the settling
+//!   force (an overdamped particle would move slower than that fraction of its free-fall
+//!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
+//!   the largest is below `overlap_tolerance`.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::RngExt;
@@ -18,7 +19,7 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use super::contacts::{ContactLaw, Container};
-use crate::models::align::params::PackingParams;
+use crate::models::align::params::{PackingParams, RestMeasure};
 use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
@@ -80,13 +81,22 @@ impl Packing {
         })?;
         let f = n.settling_force;
         packing.steps[1] = packing.flow(&law, Repulsion::Hertz, f, |s| {
-            s.steps > 10 && s.max_force < n.rest_speed * f
+            let speed = match n.rest_measure {
+                RestMeasure::Max => s.max_force,
+                RestMeasure::Rms => s.rms_force,
+            };
+            s.steps > 10 && speed < n.rest_speed * f
         })?;
         packing.container.top = None;
         packing.steps[2] = packing.flow(&law, Repulsion::Hertz, 0.0, |s| {
             s.max_overlap < n.overlap_tolerance
         })?;
         Ok(packing)
+    }
+
+    /// Solid volume over the volume of the die up to the highest sphere top.
+    pub fn packing_fraction(&self) -> f64 {
+        packing_fraction(&self.radius, &self.position, &self.container)
     }
 
     /// Minimizes the stage's potential energy with FIRE until `done`; returns the step count.
@@ -126,6 +136,9 @@ impl Packing {
                 steps: step,
                 max_overlap: force.par_iter().map(|f| f.2).reduce(|| 0.0, f64::max),
                 max_force,
+                // serial sum: the same bits at any thread count
+                rms_force: (force.iter().map(|f| f.0.norm_squared()).sum::<f64>() / n as f64)
+                    .sqrt(),
             };
             if done(&status) {
                 return Ok(step);
@@ -136,6 +149,21 @@ impl Packing {
             "packing: a stage did not finish within {MAX_STEPS} steps"
         ))
     }
+}
+
+/// Solid volume of spheres (radius, centre) over the volume of the die up to the highest
+/// sphere top.
+pub fn packing_fraction(radius: &[f64], position: &[Vector3<f64>], container: &Container) -> f64 {
+    let top = position
+        .iter()
+        .zip(radius)
+        .map(|(p, r)| p.z + r)
+        .fold(0.0, f64::max);
+    let solid: f64 = radius
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .sum();
+    solid / (container.lx * container.ly * top)
 }
 
 /// Net force on a particle, its summed contact stiffness and its largest overlap.
@@ -242,6 +270,8 @@ struct FlowStatus {
     max_overlap: f64,
     /// Largest net force: the overdamped speed a particle would have (γ = 1).
     max_force: f64,
+    /// Root-mean-square net force.
+    rms_force: f64,
 }
 
 #[derive(Clone, Copy)]

@@ -21,7 +21,7 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 use rayon::prelude::*;
 
-use super::contacts::{Contact, ContactSet, WALL};
+use super::contacts::{Contact, ContactLaw, ContactSet, WALL};
 
 /// Translational and angular velocity of one particle (reduced units).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -36,6 +36,8 @@ pub struct Motion {
 pub struct Stage<'a> {
     /// Contacts at the stage's positions.
     pub contacts: &'a ContactSet,
+    /// The contact laws (friction coefficients of pairs and walls).
+    pub law: &'a ContactLaw,
     /// Reduced radii.
     pub radius: &'a [f64],
     /// External forces (pressure, gravity).
@@ -111,12 +113,12 @@ pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
     let (mut loaded, mut sticking) = (0usize, 0usize);
     for (i, m) in motion.iter().enumerate() {
         for c in stage.contacts.of(i) {
-            if c.friction > 0.0 && c.overlap > 0.0 {
+            if stage.law.friction_of(c) > 0.0 && c.overlap > 0.0 {
                 let partner = if c.partner == WALL {
                     Vector3::zeros()
                 } else {
-                    let p = motion[c.partner as usize];
-                    p.v - c.partner_radius * p.w.cross(&c.normal)
+                    let j = c.partner as usize;
+                    motion[j].v - stage.radius[j] * motion[j].w.cross(&c.normal)
                 };
                 let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
                 let slip = rel - rel.dot(&c.normal) * c.normal;
@@ -221,7 +223,7 @@ impl Local<'_> {
             if end > 0.0 {
                 phi += 0.4 * c.hertz * end * end * end.sqrt() / dt;
             }
-            let bound = c.friction * c.normal_force_at(c.overlap);
+            let bound = self.stage.law.friction_of(c) * c.normal_force_at(c.overlap);
             if bound > 0.0 {
                 let slip = rel - normal_rate * c.normal;
                 phi += bound * (slip.norm_squared() + self.stage.slip_scale.powi(2)).sqrt();
@@ -250,7 +252,7 @@ impl Local<'_> {
                 let block = dt * c.stiffness_at(end) * e * e.transpose();
                 hess.fixed_view_mut::<3, 3>(0, 0).add_assign(&block);
             }
-            let bound = c.friction * c.normal_force_at(c.overlap);
+            let bound = self.stage.law.friction_of(c) * c.normal_force_at(c.overlap);
             if bound > 0.0 {
                 let slip = rel - normal_rate * e;
                 let rho = (slip.norm_squared() + self.stage.slip_scale.powi(2)).sqrt();
@@ -308,8 +310,8 @@ fn solve_particle(stage: &Stage, motion: &[Motion], i: usize) -> Motion {
         let w = if c.partner == WALL {
             Vector3::zeros()
         } else {
-            let m = motion[c.partner as usize];
-            m.v - c.partner_radius * m.w.cross(&c.normal)
+            let j = c.partner as usize;
+            motion[j].v - stage.radius[j] * motion[j].w.cross(&c.normal)
         };
         if k < local.partner.len() {
             local.partner[k] = w;
@@ -387,6 +389,7 @@ mod tests {
         let force = vec![Vector3::new(fn0, 0.0, 0.0), Vector3::new(-fn0, 0.0, 0.0)];
         let stage = Stage {
             contacts: &contacts,
+            law: &law,
             radius: &radius,
             force: &force,
             torque: &torque,

@@ -1,0 +1,85 @@
+//! `magopt bench align`: one full DEM run (settling, then alignment to the target) per particle
+//! count and thread count: settling time, particle-steps per second of both stages, peak memory.
+
+use serde_json::json;
+use std::time::Instant;
+
+use super::{counts, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use crate::materials::MaterialDb;
+use crate::models::align::dem::{self, Packing};
+use crate::models::align::AlignParams;
+use crate::units::si_per_unit;
+use crate::{Error, Result};
+
+/// The align model: for each (N, threads) a settled packing (seed 1), then the alignment stage.
+/// Threads act inside the run: the packing's force loop and, from `parallel_from` particles on,
+/// the coloured Gauss–Seidel sweep. (Sweeps and optimizations parallelize across replicates.)
+pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
+    let sizes = counts("particles", args.particles.as_deref(), &[1000, 10000])?;
+    let threads = counts("threads", Some(&args.threads), &[])?;
+    let material = db.get("srfe12o19")?.clone();
+    println!(
+        "align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, rest criterion {:?}",
+        args.rest
+    );
+    println!(
+        "{:>7} {:>3} {:>9} {:>8} {:>11} {:>6} {:>7} {:>9} {:>10} {:>8} {:>7}",
+        "N",
+        "thr",
+        "settle s",
+        "steps",
+        "p-steps/s",
+        "steps",
+        "sweeps",
+        "align s",
+        "p-steps/s",
+        "A_final",
+        "MB"
+    );
+    let mut rows = Vec::new();
+    for &n in &sizes {
+        for &t in &threads {
+            let pool = pool(t)?;
+            let mut params =
+                AlignParams::paper_defaults(material.clone(), 40.0 * si_per_unit("kOe"));
+            params.particles = n;
+            params.numerics.rest_measure = args.rest;
+            reset_peak_rss();
+            let started = Instant::now();
+            let packing = pool
+                .install(|| Packing::generate(&params.packing(), 1))
+                .map_err(Error::Output)?;
+            let settle_s = started.elapsed().as_secs_f64();
+            let settle_steps: usize = packing.steps.iter().sum();
+            params.max_time = (args.max_steps as f64 - 0.5) * dem::time_step_s(&params, &packing);
+            let outcome = pool.install(|| dem::align(&params, &packing));
+            let settle_rate = (settle_steps * n) as f64 / settle_s;
+            let align_rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
+            let peak_mb = peak_rss_mb();
+            println!(
+                "{n:>7} {t:>3} {settle_s:>9.1} {settle_steps:>8} {settle_rate:>11.3e} {:>6} {:>7} {:>9.2} {align_rate:>10.3e} {:>8.4} {peak_mb:>7.1}",
+                outcome.steps,
+                outcome.solver_sweeps,
+                outcome.wall_time_s,
+                outcome.final_alignment,
+            );
+            rows.push(json!({
+                "particles": n,
+                "threads": t,
+                "rest_measure": args.rest,
+                "settle_s": settle_s,
+                "settle_steps": packing.steps,
+                "settle_particle_steps_per_s": settle_rate,
+                "align_steps": outcome.steps,
+                "align_solver_sweeps": outcome.solver_sweeps,
+                "align_s": outcome.wall_time_s,
+                "align_particle_steps_per_s": align_rate,
+                "alignment_time_s": outcome.alignment_time_s,
+                "final_alignment": outcome.final_alignment,
+                "packing_fraction": outcome.packing_fraction,
+                "peak_rss_mb": peak_mb,
+            }));
+        }
+    }
+    Ok(rows)
+}

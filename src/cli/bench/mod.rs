@@ -1,0 +1,145 @@
+//! `magopt bench <model>`: throughput and peak memory of a model's runs, one row per
+//! configuration. One file per model; each prints a table and returns its rows as JSON, which
+//! `--out DIR` writes to `DIR/bench-<model>.json` (results/bench/README.md).
+
+mod align;
+mod analyze;
+mod bed;
+
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use std::path::PathBuf;
+
+use super::count;
+use crate::materials::MaterialDb;
+use crate::models::align::RestMeasure;
+use crate::output::atomic;
+use crate::{Error, Result};
+
+/// What to benchmark.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum Target {
+    /// The DEM align model: settling, then alignment (Sr ferrite, 40 kOe, μ = 0.2,
+    /// P = 0.5 atm) until A = 0.95 or --max-steps.
+    Align,
+    /// The 2D structure analysis (Voronoi, n5/n6/n7, Ψ6, regularity) of --points jittered
+    /// lattice points.
+    Analyze,
+    /// One full compression cycle of the mono-disperse bed (dry friction, defaults).
+    Bed,
+}
+
+impl Target {
+    fn name(self) -> &'static str {
+        match self {
+            Target::Align => "align",
+            Target::Analyze => "analyze",
+            Target::Bed => "bed",
+        }
+    }
+}
+
+/// `magopt bench` options.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// What to benchmark.
+    #[arg(value_enum, default_value = "align")]
+    target: Target,
+    /// Particle counts, comma-separated [default: 1000,10000 for align, 368 for bed].
+    #[arg(long, value_delimiter = ',')]
+    particles: Option<Vec<String>>,
+    /// Thread counts, comma-separated.
+    #[arg(long, default_value = "1,2", value_delimiter = ',')]
+    threads: Vec<String>,
+    /// align: cap on alignment steps per run (the run stops earlier at A = 0.95).
+    #[arg(long, default_value_t = 1000)]
+    max_steps: usize,
+    /// align: settling rest criterion: rms (root-mean-square net force; the model's default)
+    /// or max (largest net force; its cost explodes with N).
+    #[arg(long, value_enum, default_value = "rms")]
+    rest: RestMeasure,
+    /// analyze: point counts, comma-separated.
+    #[arg(long, default_value = "10000,100000", value_delimiter = ',')]
+    points: Vec<String>,
+    /// bed: neighbour methods, comma-separated (exact, cells, verlet).
+    #[arg(long, default_value = "verlet,exact", value_delimiter = ',')]
+    neighbors: Vec<String>,
+    /// bed: piston speed (bare number: mm/s); faster means fewer steps per cycle.
+    #[arg(long, default_value = "5.63mm/s")]
+    velocity: String,
+    /// Also write the rows as JSON to DIR/bench-<model>.json.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+/// Runs the benchmark, prints one line per configuration and writes the JSON if asked.
+pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
+    if let Some(dir) = &args.out {
+        atomic::prepare_output_dir(dir)?;
+    }
+    let rows = match args.target {
+        Target::Align => align::run(db, args)?,
+        Target::Analyze => analyze::run(args)?,
+        Target::Bed => bed::run(args)?,
+    };
+    if let Some(dir) = &args.out {
+        let name = args.target.name();
+        let report = json!({
+            "model": name,
+            "machine": machine(),
+            "command": std::env::args().collect::<Vec<_>>().join(" "),
+            "rows": rows,
+        });
+        atomic::write_json_atomic(&dir.join(format!("bench-{name}.json")), &report)?;
+    }
+    Ok(())
+}
+
+/// Parses comma-separated counts, or the model's defaults when none were given.
+fn counts(name: &str, given: Option<&[String]>, default: &[usize]) -> Result<Vec<usize>> {
+    match given {
+        Some(texts) => texts.iter().map(|t| count(name, t)).collect(),
+        None => Ok(default.to_vec()),
+    }
+}
+
+/// A rayon pool of `threads` threads (the run's parallel loops use it via `install`).
+fn pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Output(format!("thread pool: {e}")))
+}
+
+/// Resets the kernel's peak-RSS mark of this process (Linux: "5" to /proc/self/clear_refs), so
+/// the next `peak_rss_mb` is the peak of one configuration. Silently a no-op elsewhere.
+fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// Peak resident set size of this process since the last reset (VmHWM), MB; NaN where /proc is
+/// unavailable.
+fn peak_rss_mb() -> f64 {
+    status_field("/proc/self/status", "VmHWM:").map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+/// A "key: number ..." line of a /proc file.
+fn status_field(path: &str, key: &str) -> Option<f64> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    line[key.len()..].split_whitespace().next()?.parse().ok()
+}
+
+/// The CPU model and logical core count, for the record.
+fn machine() -> serde_json::Value {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("model name"))
+            .and_then(|l| l.split(':').nth(1))
+            .map(|s| s.trim().to_string())
+    });
+    json!({
+        "cpu": cpu,
+        "logical_cores": std::thread::available_parallelism().map(|n| n.get()).ok(),
+    })
+}
