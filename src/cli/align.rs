@@ -139,7 +139,7 @@ impl PhysicsArgs {
 }
 
 /// A parameter error's message without its leading "name: ".
-fn strip_name(e: &Error, name: &str) -> String {
+pub(super) fn strip_name(e: &Error, name: &str) -> String {
     let text = e.to_string();
     text.strip_prefix(&format!("{name}: "))
         .unwrap_or(&text)
@@ -244,18 +244,19 @@ pub fn run_align(db: &MaterialDb, args: &AlignArgs) -> Result<()> {
 /// A study built from command-line options: no sweep, optionally one free parameter. Its text
 /// is written first and parsed back, so the saved study.toml is exactly what ran and
 /// `magopt sweep`/`optimize` on it repeat the run.
-fn preset(
-    model: &AlignModel,
+pub(super) fn preset<M: StudyModel>(
+    model: &M,
     values: &[(String, Value)],
     replicates: usize,
     seed: u64,
     optimize: Option<&OptimizeSpec>,
     name: &str,
-) -> Result<Study<AlignModel>> {
+) -> Result<Study<M>> {
     let is_free = |k: &str| optimize.is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k));
     let mut text = format!(
-        "# written by `{}`\nname = \"{name}\"\nmodel = \"align\"\nreplicates = {replicates}\nseed = {seed}\n\n[base]\n",
-        command_line()
+        "# written by `{}`\nname = \"{name}\"\nmodel = \"{}\"\nreplicates = {replicates}\nseed = {seed}\n\n[base]\n",
+        command_line(),
+        model.name()
     );
     for (k, v) in values.iter().filter(|(k, _)| !is_free(k)) {
         text += &format!("{k} = {}\n", model.spec(k)?.toml_literal(v));

@@ -3,6 +3,7 @@
 
 mod align;
 mod bench;
+mod blast;
 mod study;
 
 use clap::{Parser, Subcommand};
@@ -30,6 +31,8 @@ enum Command {
     Materials,
     /// One alignment run: settle a powder, switch on field and pressure, report τ.
     Align(align::AlignArgs),
+    /// One blast run: a charged cloud in E and B fields with drag (and interactions).
+    Blast(Box<blast::BlastArgs>),
     /// Find the field that aligns the powder fastest (the headline study).
     OptimizeField(align::OptimizeArgs),
     /// Run a study file's grid × replicates in parallel; tables and provenance into --out.
@@ -89,6 +92,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Align(args) => align::run_align(&db, &args),
+        Command::Blast(args) => blast::run_blast(&args),
         Command::OptimizeField(args) => align::run_optimize(&db, &args),
         Command::Sweep(args) => study::sweep(db, &args),
         Command::Optimize(args) => study::optimize(db, &args),

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use super::{command_line, threads};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
+use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
 use crate::study::model::StudyModel;
 use crate::study::records;
@@ -85,6 +86,10 @@ macro_rules! with_model {
                 let $m = &AlignModel::new($db);
                 $body
             }
+            "blast" => {
+                let $m = &BlastModel;
+                $body
+            }
             other => Err(Error::input(format!(
                 "{}: model: '{other}' is not available (available: {})",
                 $origin,
@@ -95,7 +100,7 @@ macro_rules! with_model {
 }
 
 /// The models a study file may name.
-const MODELS: &[&str] = &["align"];
+const MODELS: &[&str] = &["align", "blast"];
 
 fn bar() -> ProgressBar {
     let bar = ProgressBar::new(0);

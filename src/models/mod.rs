@@ -2,3 +2,4 @@
 //! forces, integrator step, observables.
 
 pub mod align;
+pub mod blast;
