@@ -29,9 +29,9 @@ pub struct StepStats {
     pub rejected: usize,
     /// Fixed-point iterations over accepted steps.
     pub iterations: usize,
-    /// Smallest accepted step, s.
+    /// Smallest accepted adaptive step (steps clipped at sampling times excluded), s.
     pub dt_min: f64,
-    /// Largest accepted step, s.
+    /// Largest accepted adaptive step, s.
     pub dt_max: f64,
 }
 
@@ -90,14 +90,17 @@ impl Trapezoid {
             );
             match self.iterate(cloud, forces, h) {
                 Ok((k, lambda)) => {
-                    if k < self.params.iterations && h == self.dt {
-                        self.dt = (lambda * h).min(self.params.dt_max);
-                    }
                     let s = &mut self.stats;
                     s.steps += 1;
                     s.iterations += k;
-                    s.dt_min = s.dt_min.min(h);
-                    s.dt_max = s.dt_max.max(h);
+                    if h == self.dt {
+                        // an adaptive step (not one clipped at a sampling time)
+                        s.dt_min = s.dt_min.min(h);
+                        s.dt_max = s.dt_max.max(h);
+                        if k < self.params.iterations {
+                            self.dt = (lambda * h).min(self.params.dt_max);
+                        }
+                    }
                     forces.form_bonds(cloud);
                     return Ok(h);
                 }
