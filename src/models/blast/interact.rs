@@ -138,6 +138,17 @@ impl Interactor {
         let ri = &cloud.positions[i];
         let mut sum = Vector3::zeros();
         match &self.near {
+            None if self.law.beta == (1.0, 2.0) => {
+                // the source's exponents: (α1/r − α2/r²) n = d (α1/r² − α2/r³), one sqrt
+                let (a1, a2) = self.law.alpha;
+                let (before, after) = cloud.positions.split_at(i);
+                for rj in before.iter().chain(&after[1..]) {
+                    let d = rj - ri;
+                    let inv2 = 1.0 / d.norm_squared();
+                    let inv = inv2.sqrt();
+                    sum += d * (inv2 * (a1 - a2 * inv));
+                }
+            }
             None => {
                 for (j, rj) in cloud.positions.iter().enumerate() {
                     if j != i {
