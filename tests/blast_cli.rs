@@ -81,8 +81,14 @@ fn bad_input_is_one_line_with_exit_code_2() {
         (&["--energy", "0"], "energy"),
         (&["--particles", "0"], "particles"),
         (&["--particles", "-5"], "particles"),
-        (&["--particles", "100000"], "cloud too small for its particles"),
-        (&["--cloud-radius", "0.04"], "cloud too small for its particles"),
+        (
+            &["--particles", "100000"],
+            "cloud too small for its particles",
+        ),
+        (
+            &["--cloud-radius", "0.04"],
+            "cloud too small for its particles",
+        ),
         (&["--dt", "0"], "dt"),
         (&["--dt", "-1e-4"], "dt"),
         (&["--field", "NaN"], "field"),

@@ -3,6 +3,10 @@
 //! particle-steps per second, and the process's peak memory. Threads act inside the run: the
 //! packing's force loop and, from `parallel_from` particles on, the coloured Gauss–Seidel sweep.
 //! (Sweeps and optimizations parallelize across replicates instead.)
+//!
+//! `magopt bench blast`: the source's non-interacting example (Boris–Strang, 10⁴ steps) and
+//! the interacting example (adaptive trapezoidal rule, exact all-pairs near field) per particle
+//! count and thread count: wall time, steps and particle-steps per second.
 
 use clap::{Args, ValueEnum};
 use std::time::Instant;
@@ -19,6 +23,8 @@ use crate::{Error, Result};
 enum Target {
     /// The DEM alignment stage (Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm).
     Align,
+    /// The blast model: non-interacting and interacting examples.
+    Blast,
 }
 
 /// `magopt bench` options.
@@ -27,8 +33,8 @@ pub struct BenchArgs {
     /// What to benchmark.
     #[arg(value_enum, default_value = "align")]
     target: Target,
-    /// Particle counts, comma-separated.
-    #[arg(long, default_value = "1000,10000", value_delimiter = ',')]
+    /// Particle counts, comma-separated [default: 1000,10000 for align, 2000 for blast].
+    #[arg(long, value_delimiter = ',')]
     particles: Vec<String>,
     /// Thread counts, comma-separated.
     #[arg(long, default_value = "1,2", value_delimiter = ',')]
@@ -36,11 +42,16 @@ pub struct BenchArgs {
     /// Cap on alignment steps per run (the run stops earlier at A = 0.95).
     #[arg(long, default_value_t = 1000)]
     max_steps: usize,
+    /// Simulated time of the interacting blast example (s, ms; bare number: s).
+    #[arg(long, default_value = "1s")]
+    interacting_duration: String,
 }
 
 /// Runs the benchmark and prints one line per (N, threads).
 pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
-    let Target::Align = args.target;
+    if let Target::Blast = args.target {
+        return blast(args);
+    }
     let material = db.get("srfe12o19")?.clone();
     println!("align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, settled packing");
     println!(
@@ -55,8 +66,8 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
         "particle-steps/s",
         "peak RSS (MB)"
     );
-    for n_text in &args.particles {
-        let n = count("particles", n_text)?;
+    for n_text in particle_counts(args, &["1000", "10000"]) {
+        let n = count("particles", &n_text)?;
         for t_text in &args.threads {
             let threads = count("threads", t_text)?;
             let pool = rayon::ThreadPoolBuilder::new()
@@ -83,6 +94,72 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
                 outcome.wall_time_s,
                 peak_rss_mb()
             );
+        }
+    }
+    Ok(())
+}
+
+/// The --particles list, or the target's default.
+fn particle_counts(args: &BenchArgs, default: &[&str]) -> Vec<String> {
+    if args.particles.is_empty() {
+        default.iter().map(|s| s.to_string()).collect()
+    } else {
+        args.particles.clone()
+    }
+}
+
+/// `magopt bench blast`.
+fn blast(args: &BenchArgs) -> Result<()> {
+    use crate::models::blast::{run, BlastParams, Interactions};
+    let duration = crate::units::parse_quantity(
+        &args.interacting_duration,
+        crate::units::Dimension::Time,
+        "s",
+    )
+    .map_err(|e| Error::input(format!("--interacting-duration: {e}")))?;
+    println!("blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m)");
+    println!(
+        "{:>6} {:>7} {:>12} {:>9} {:>8} {:>9} {:>10} {:>16} {:>13}",
+        "N",
+        "threads",
+        "model",
+        "time (s)",
+        "steps",
+        "rejected",
+        "wall (s)",
+        "particle-steps/s",
+        "peak RSS (MB)"
+    );
+    for n_text in particle_counts(args, &["2000"]) {
+        let n = count("particles", &n_text)?;
+        for t_text in &args.threads {
+            let threads = count("threads", t_text)?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| Error::Output(format!("thread pool: {e}")))?;
+            for interacting in [false, true] {
+                let mut p = BlastParams::source_example();
+                p.particles = n;
+                p.samples = 10;
+                if interacting {
+                    p.interactions = Interactions::all();
+                    p.duration = duration;
+                }
+                p.validate()?;
+                let o = pool.install(|| run(&p, 1, &[]))?;
+                let label = if interacting { "interacting" } else { "free" };
+                println!(
+                    "{n:>6} {threads:>7} {label:>12} {:>9} {:>8} {:>9} {:>10.3} {:>16.3e} {:>13.1}{}",
+                    p.duration,
+                    o.stats.steps,
+                    o.stats.rejected,
+                    o.wall_time_s,
+                    (o.stats.steps * n) as f64 / o.wall_time_s,
+                    peak_rss_mb(),
+                    o.failure.map_or(String::new(), |f| format!("  failed: {f}"))
+                );
+            }
         }
     }
     Ok(())
