@@ -245,8 +245,9 @@ fn bonds_form_past_the_bonding_strain_and_hold() {
     );
 }
 
-#[test]
-fn near_field_cutoff_truncation_error_against_exact_sum() {
+/// Near-field forces on a blasted cloud of 500 at rest (no field, no drag), with a cut-off
+/// (m) or a Barnes–Hut opening angle, and their relative RMS error against the exact sum.
+fn near_field_error(cutoff: f64, theta: f64) -> f64 {
     let mut p = BlastParams::source_example();
     p.particles = 500;
     p.field_strength = 0.0;
@@ -254,31 +255,52 @@ fn near_field_cutoff_truncation_error_against_exact_sum() {
     p.interactions = Interactions::parse("near-field").unwrap();
     let positions = Cloud::blast(&p, 3).unwrap().positions;
     let cloud = Cloud::at_rest(positions, &p);
-    let forces = |cutoff: f64| {
+    let forces = |cutoff: f64, theta: f64| {
         let mut q = p.clone();
         q.near_field.cutoff = cutoff;
+        q.near_field.theta = theta;
         let mut f = vec![Vector3::zeros(); cloud.len()];
         let mut m = f.clone();
         Interactor::new(&q, cloud.len()).evaluate(&cloud, 1e-4, &mut f, &mut m);
         f
     };
-    let exact = forces(0.0);
-    let scale: f64 = exact.iter().map(|f| f.norm_squared()).sum::<f64>().sqrt();
-    let mut last = f64::INFINITY;
-    for cutoff in [0.25, 0.5, 1.0, 2.0] {
-        let cut = forces(cutoff);
-        let error: f64 = cut
+    let exact = forces(0.0, 0.0);
+    let approx = forces(cutoff, theta);
+    let norm = |v: &mut dyn Iterator<Item = f64>| v.sum::<f64>().sqrt();
+    norm(
+        &mut approx
             .iter()
             .zip(&exact)
-            .map(|(a, b)| (a - b).norm_squared())
-            .sum::<f64>()
-            .sqrt()
-            / scale;
+            .map(|(a, b)| (a - b).norm_squared()),
+    ) / norm(&mut exact.iter().map(|f| f.norm_squared()))
+}
+
+#[test]
+fn near_field_cutoff_truncation_error_against_exact_sum() {
+    let mut last = f64::INFINITY;
+    for cutoff in [0.25, 0.5, 1.0, 2.0] {
+        let error = near_field_error(cutoff, 0.0);
         println!("near-field cut-off {cutoff} m: relative RMS force error {error:.3e}");
         assert!(error < last, "error shrinks as the cut-off grows");
         last = error;
     }
     assert!(last < 1e-12, "a cut-off beyond the cloud diameter is exact");
+}
+
+#[test]
+fn barnes_hut_converges_to_the_exact_near_field() {
+    let mut last = f64::INFINITY;
+    for theta in [1.0, 0.5, 0.25, 0.1] {
+        let error = near_field_error(0.0, theta);
+        println!("Barnes–Hut θ = {theta}: relative RMS force error {error:.3e}");
+        assert!(error < last, "error shrinks with θ");
+        last = error;
+    }
+    assert!(last < 1e-3);
+    assert!(
+        near_field_error(0.0, 1e-9) < 1e-12,
+        "θ → 0 opens every cell"
+    );
 }
 
 #[test]

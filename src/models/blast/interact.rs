@@ -10,6 +10,7 @@ use super::cloud::Cloud;
 use super::field::{lorentz_acceleration, Drag};
 use super::pairs::{contact_area, Body, PairLaw};
 use super::params::BlastParams;
+use super::tree::Octree;
 use crate::neighbor::NeighborList;
 
 /// Particles per rayon task: enough work to amortize scheduling.
@@ -24,6 +25,8 @@ pub struct Interactor {
     electric_field: Vector3<f64>,
     contacts: NeighborList<3>,
     near: Option<(NeighborList<3>, f64)>,
+    /// Barnes–Hut tree and opening angle (θ > 0 only).
+    tree: Option<(Octree, f64)>,
     /// Bonded partners of each particle with the contact area at bonding, ascending.
     bonds: Vec<Vec<(u32, f64)>>,
     radii: Vec<f64>,
@@ -43,6 +46,8 @@ impl Interactor {
             electric_field: params.electric_field(),
             contacts: NeighborList::new(0.5 * params.radius),
             near,
+            tree: (params.interactions.near_field && params.near_field.theta > 0.0)
+                .then(|| (Octree::default(), params.near_field.theta)),
             bonds: vec![Vec::new(); n],
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
@@ -83,6 +88,9 @@ impl Interactor {
         }
         if let Some((list, _)) = &mut self.near {
             list.update(&cloud.positions, &self.near_radii);
+        }
+        if let Some((tree, _)) = &mut self.tree {
+            tree.build(&cloud.positions);
         }
         let this = &*self;
         forces
@@ -133,22 +141,16 @@ impl Interactor {
         (force, moment)
     }
 
-    /// Near-field force on i: exact over all j, or over the cut-off list.
+    /// Near-field force on i: exact over all j, over the cut-off list, or from the tree.
     fn near_field_on(&self, cloud: &Cloud, i: usize) -> Vector3<f64> {
         let ri = &cloud.positions[i];
+        if let Some((tree, theta)) = &self.tree {
+            return tree.sum(&cloud.positions, i, *theta, |a, b| {
+                self.law.near_field(a, b)
+            });
+        }
         let mut sum = Vector3::zeros();
         match &self.near {
-            None if self.law.beta == (1.0, 2.0) => {
-                // the source's exponents: (α1/r − α2/r²) n = d (α1/r² − α2/r³), one sqrt
-                let (a1, a2) = self.law.alpha;
-                let (before, after) = cloud.positions.split_at(i);
-                for rj in before.iter().chain(&after[1..]) {
-                    let d = rj - ri;
-                    let inv2 = 1.0 / d.norm_squared();
-                    let inv = inv2.sqrt();
-                    sum += d * (inv2 * (a1 - a2 * inv));
-                }
-            }
             None => {
                 for (j, rj) in cloud.positions.iter().enumerate() {
                     if j != i {

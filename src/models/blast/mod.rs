@@ -5,7 +5,8 @@
 //! - `params`: parameters, defaults (the source's examples), validation.
 //! - `cloud`: the state and the blast initial condition (C1).
 //! - `field`: Lorentz force (C2), drag laws (C3), Boris rotation, exact drag decay.
-//! - `pairs`, `interact`: pair forces (C4–C8) and the per-particle force gather.
+//! - `pairs`, `interact`, `tree`: pair forces (C4–C8), the per-particle force gather, and
+//!   the Barnes–Hut tree for the long-ranged near field.
 //! - `explicit`, `trapezoid`: the integrators (Boris–Strang, forward Euler; C9 + C10).
 //! - `observe`, `snapshot`: observables and snapshot writers; `study`: the study model.
 
@@ -19,6 +20,7 @@ pub mod params;
 pub mod snapshot;
 pub mod study;
 pub mod trapezoid;
+pub mod tree;
 
 use std::time::Instant;
 

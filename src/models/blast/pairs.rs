@@ -82,7 +82,7 @@ impl PairLaw {
         let mut force = Vector3::zeros();
         let mut normal = 0.0;
         if strain > 0.0 && self.flags.contact {
-            normal = self.stiffness * strain.powf(self.contact.exponent) * area;
+            normal = self.stiffness * power(strain, self.contact.exponent) * area;
             force -= normal * n;
         }
         if strain > 0.0 && self.flags.damping {
@@ -127,16 +127,21 @@ impl PairLaw {
     }
 
     /// Near-field force on i at r_i from j at r_j (C8): (α1 r^{−β1} − α2 r^{−β2}) n_ij, N.
+    #[inline]
     pub fn near_field(&self, ri: &Vector3<f64>, rj: &Vector3<f64>) -> Vector3<f64> {
         let d = rj - ri;
-        let dist = d.norm();
-        if dist == 0.0 {
+        let dist2 = d.norm_squared();
+        if dist2 == 0.0 {
             return Vector3::zeros();
         }
-        let inv = 1.0 / dist;
-        let magnitude =
-            self.alpha.0 * power(inv, self.beta.0) - self.alpha.1 * power(inv, self.beta.1);
-        d * (magnitude * inv)
+        let inv2 = 1.0 / dist2;
+        let inv = inv2.sqrt();
+        let (a1, a2) = self.alpha;
+        if self.beta == (1.0, 2.0) {
+            // the source's exponents: d (α1/r² − α2/r³), no powers
+            return d * (inv2 * (a1 - a2 * inv));
+        }
+        d * ((a1 * power(inv, self.beta.0) - a2 * power(inv, self.beta.1)) * inv)
     }
 
     /// Distance where the near-field attraction and repulsion balance,
@@ -147,10 +152,14 @@ impl PairLaw {
     }
 }
 
-/// x^p with a fast path for whole p (the usual β = 1, 2).
+/// x^p with fast paths for the usual exponents (β = 1, 2; p_p = p_b = 2).
 fn power(x: f64, p: f64) -> f64 {
-    if p.fract() == 0.0 && p.abs() < 64.0 {
-        x.powi(p as i32)
+    if p == 1.0 {
+        x
+    } else if p == 2.0 {
+        x * x
+    } else if p == 3.0 {
+        x * x * x
     } else {
         x.powf(p)
     }

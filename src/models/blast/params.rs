@@ -181,9 +181,12 @@ pub struct NearFieldParams {
     pub repulsion: f64,
     /// β2.
     pub repulsion_exponent: f64,
-    /// Cut-off distance, m; 0 means exact all pairs. The 1/r attraction is long-ranged, so a
-    /// cut-off drops most of the collective pull (measured in tests/blast_interactions.rs).
+    /// Cut-off distance, m; 0 means none. The 1/r attraction is long-ranged, so a cut-off
+    /// drops most of the collective pull (measured in tests/blast_interactions.rs).
     pub cutoff: f64,
+    /// Barnes–Hut opening angle θ (cells with size < θ · distance act from their centre of
+    /// mass); 0 means the exact all-pairs sum (the default).
+    pub theta: f64,
 }
 
 /// Time stepping (C9, C10).
@@ -302,6 +305,7 @@ impl BlastParams {
                 repulsion: 0.01,
                 repulsion_exponent: 2.0,
                 cutoff: 0.0,
+                theta: 0.0,
             },
             step: StepParams {
                 integrator: Integrator::Auto,
@@ -402,6 +406,7 @@ impl BlastParams {
             ("near_field_repulsion", n.repulsion),
             ("near_field_repulsion_exponent", n.repulsion_exponent),
             ("near_field_cutoff", n.cutoff),
+            ("near_field_theta", n.theta),
             ("target_aspect_ratio", self.target_aspect_ratio),
         ];
         for (name, x) in non_negative {
@@ -421,6 +426,12 @@ impl BlastParams {
                     "{name}: {x} is not allowed (need 0 ≤ {name} ≤ 1)"
                 )));
             }
+        }
+        if n.cutoff > 0.0 && n.theta > 0.0 {
+            return Err(Error::input(format!(
+                "near_field_cutoff {} m and near_field_theta {}: choose one (the other must be 0)",
+                n.cutoff, n.theta
+            )));
         }
         if self.particles == 0 || self.samples == 0 || s.iterations == 0 {
             return Err(Error::input(

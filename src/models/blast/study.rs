@@ -95,6 +95,7 @@ const PARAMETERS: &[ParamSpec] = &[
     num("near_field_repulsion"),
     num("near_field_repulsion_exponent"),
     q("near_field_cutoff", D::Length, "m"),
+    num("near_field_theta"),
     num("target_aspect_ratio"),
 ];
 
@@ -337,6 +338,7 @@ impl StudyModel for BlastModel {
             "near_field_repulsion" => nf.repulsion = x,
             "near_field_repulsion_exponent" => nf.repulsion_exponent = x,
             "near_field_cutoff" => nf.cutoff = x,
+            "near_field_theta" => nf.theta = x,
             "target_aspect_ratio" => p.target_aspect_ratio = x,
             other => {
                 return Err(self
