@@ -14,3 +14,9 @@ for study in studies/quick/blast-field-on-off.toml studies/quick/blast-aspect-vs
 done
 rm -rf "$out/blast-optimize-field"
 "$bin" optimize studies/quick/blast-optimize-field.toml --out "$out/blast-optimize-field"
+# Snapshots (extended XYZ, Parquet, side views) of single runs: field on, and the interacting
+# example with the near field.
+rm -rf "$out/run-field-on" "$out/run-near-field"
+"$bin" blast --particles 500 --energy 2.5kJ --out "$out/run-field-on" --snapshot-times 0,0.25,0.5,1
+"$bin" blast --interacting --particles 300 --energy 1.5kJ --out "$out/run-near-field" \
+  --snapshot-times 0,0.02,0.05,0.2,1

@@ -61,6 +61,7 @@ fn out_writes_tables_and_snapshots() {
         .collect();
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".xyz")).count(), 3);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".parquet")).count(), 3);
+    assert_eq!(snaps.iter().filter(|s| s.ends_with(".png")).count(), 3);
     let xyz = std::fs::read_dir(dir.join("snapshots"))
         .unwrap()
         .map(|e| e.unwrap().path())

@@ -45,6 +45,9 @@ pub struct BenchArgs {
     /// Simulated time of the interacting blast example (s, ms; bare number: s).
     #[arg(long, default_value = "1s")]
     interacting_duration: String,
+    /// Barnes–Hut opening angle of the interacting blast example's near field (0 = exact).
+    #[arg(long, default_value_t = 0.0)]
+    near_field_theta: f64,
 }
 
 /// Runs the benchmark and prints one line per (N, threads).
@@ -117,7 +120,10 @@ fn blast(args: &BenchArgs) -> Result<()> {
         "s",
     )
     .map_err(|e| Error::input(format!("--interacting-duration: {e}")))?;
-    println!("blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m)");
+    println!(
+        "blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m); near field θ = {}",
+        args.near_field_theta
+    );
     println!(
         "{:>6} {:>7} {:>12} {:>9} {:>8} {:>9} {:>10} {:>16} {:>13}",
         "N",
@@ -145,6 +151,7 @@ fn blast(args: &BenchArgs) -> Result<()> {
                 if interacting {
                     p.interactions = Interactions::all();
                     p.duration = duration;
+                    p.near_field.theta = args.near_field_theta;
                 }
                 p.validate()?;
                 let o = pool.install(|| run(&p, 1, &[]))?;

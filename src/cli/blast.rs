@@ -189,7 +189,7 @@ pub fn run_blast(args: &BlastArgs) -> Result<()> {
         let snaps = dir.join("snapshots");
         std::fs::create_dir_all(&snaps).map_err(|e| Error::io(&snaps, e))?;
         for (k, (t, cloud)) in outcome.snapshots.iter().enumerate() {
-            snapshot::write(&snaps, k, *t, cloud)?;
+            snapshot::write(&snaps, k, *t, cloud, &params.field_axis())?;
         }
     }
     let json = summary_json(&params, args.seed, &result);

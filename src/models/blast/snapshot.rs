@@ -3,8 +3,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::cloud::Cloud;
+use nalgebra::Vector3;
+
+use super::cloud::{centre_of_mass, Cloud};
 use crate::output::atomic::write_atomic;
+use crate::output::plot::{render_png_sized, Figure, Series, SeriesStyle};
 use crate::output::table::{write_parquet, ColumnData, Table};
 use crate::Result;
 
@@ -44,12 +47,65 @@ pub fn table(cloud: &Cloud) -> Table {
         )
 }
 
-/// Writes `snapshot_<k>_t<time>s.xyz` and `.parquet` into `dir` (which must exist).
-pub fn write(dir: &Path, k: usize, time: f64, cloud: &Cloud) -> Result<()> {
+/// Side view of the cloud: particle centres projected on the plane spanned by the field axis
+/// (horizontal) and a perpendicular axis, both relative to the centre of mass, on equal
+/// ranges so the shape is not distorted (rendered square).
+pub fn side_view(cloud: &Cloud, axis: &Vector3<f64>, time: f64) -> Figure {
+    let other = if axis.cross(&Vector3::z()).norm() > 0.1 {
+        Vector3::z()
+    } else {
+        Vector3::y()
+    };
+    let across = (other - other.dot(axis) * axis).normalize();
+    let c = centre_of_mass(&cloud.positions);
+    let x: Vec<f64> = cloud.positions.iter().map(|r| (r - c).dot(axis)).collect();
+    let y: Vec<f64> = cloud
+        .positions
+        .iter()
+        .map(|r| (r - c).dot(&across))
+        .collect();
+    let reach = x.iter().chain(&y).fold(cloud.radius, |m, v| m.max(v.abs()));
+    let frame = Series {
+        label: String::new(),
+        x: vec![-reach, reach],
+        y: vec![-reach, reach],
+        y_err: None,
+        style: SeriesStyle::Line,
+    };
+    Figure {
+        title: format!("t = {time:.3} s, {} particles", cloud.len()),
+        x_label: "along B (m)".into(),
+        y_label: "across B (m)".into(),
+        series: vec![
+            Series {
+                label: "particle centres".into(),
+                x,
+                y,
+                y_err: None,
+                style: SeriesStyle::Points,
+            },
+            Series {
+                style: SeriesStyle::Points,
+                ..frame
+            },
+        ],
+        ..Default::default()
+    }
+}
+
+/// Writes `snapshot_<k>_t<time>s.xyz`, `.parquet` and a side view `.png` into `dir` (which
+/// must exist); `axis` is the unit field axis.
+pub fn write(dir: &Path, k: usize, time: f64, cloud: &Cloud, axis: &Vector3<f64>) -> Result<()> {
     let stem = format!("snapshot_{k:03}_t{time:.4}s");
     write_atomic(
         &dir.join(format!("{stem}.xyz")),
         extended_xyz(cloud, time).as_bytes(),
     )?;
-    write_parquet(&dir.join(format!("{stem}.parquet")), &table(cloud))
+    write_parquet(&dir.join(format!("{stem}.parquet")), &table(cloud))?;
+    render_png_sized(
+        &dir.join(format!("{stem}.png")),
+        &side_view(cloud, axis, time),
+        800,
+        800,
+    )
 }
