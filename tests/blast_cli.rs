@@ -107,3 +107,55 @@ fn bad_input_is_one_line_with_exit_code_2() {
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn blast_studies_sweep_optimize_and_plot() {
+    let dir = std::env::temp_dir().join(format!("magopt-blast-study-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        r#"name = "tiny"
+model = "blast"
+replicates = 2
+seed = 1
+[base]
+particles = 60
+energy = "0.3kJ"
+duration = "0.3s"
+samples = 5
+target_aspect_ratio = 1.5
+[sweep]
+field = ["0T", "10T"]
+[optimize]
+parameters = { field = ["0.05T", "5T"] }
+metric = "shape_error"
+scale = "log"
+scan_points = 4
+iterations = 3
+"#,
+    )
+    .unwrap();
+    let sweep = dir.join("sweep");
+    let (code, _, stderr) = magopt(&[
+        "sweep",
+        study.to_str().unwrap(),
+        "--out",
+        sweep.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let (code, _, stderr) = magopt(&["plot", sweep.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(sweep.join("plots/aspect_ratio_vs_field.png").exists());
+    let (code, stdout, stderr) = magopt(&[
+        "optimize",
+        study.to_str().unwrap(),
+        "--out",
+        dir.join("opt").to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(json.to_string().contains("field"), "{stdout}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -304,19 +304,21 @@ fn barnes_hut_converges_to_the_exact_near_field() {
 }
 
 #[test]
-fn interacting_run_is_bit_identical_at_any_thread_count() {
-    let mut p = small_cloud();
-    p.interactions = Interactions::all();
-    p.duration = 0.02;
-    p.samples = 2;
-    let in_pool = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| run(&p, 5, &[p.duration]).unwrap())
-    };
-    let (one, two) = (in_pool(1), in_pool(2));
-    assert_eq!(one.snapshots[0].1, two.snapshots[0].1);
-    assert_eq!(one.stats, two.stats);
+fn runs_are_bit_identical_at_any_thread_count() {
+    for interactions in [Interactions::all(), Interactions::default()] {
+        let mut p = small_cloud();
+        p.interactions = interactions;
+        p.duration = 0.02;
+        p.samples = 2;
+        let in_pool = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| run(&p, 5, &[p.duration]).unwrap())
+        };
+        let (one, two) = (in_pool(1), in_pool(2));
+        assert_eq!(one.snapshots[0].1, two.snapshots[0].1);
+        assert_eq!(one.stats, two.stats);
+    }
 }
