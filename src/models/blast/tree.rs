@@ -24,9 +24,9 @@ struct Node {
     count: usize,
     /// Edge length of the cubic cell, m.
     size: f64,
-    /// Children (leaf: empty); indices into `nodes`.
-    children: Vec<u32>,
-    /// Leaf: range into `order`.
+    /// Children: range into `links` (empty for a leaf).
+    children: (u32, u32),
+    /// Particles: range into `order` and `sorted`.
     range: (usize, usize),
 }
 
@@ -34,15 +34,24 @@ struct Node {
 #[derive(Debug, Clone, Default)]
 pub struct Octree {
     nodes: Vec<Node>,
+    /// Child node indices, each node's children contiguous.
+    links: Vec<u32>,
+    /// Particle indices in tree order.
     order: Vec<usize>,
+    /// Positions in tree order (contiguous leaves).
+    sorted: Vec<Vector3<f64>>,
+    /// Scratch for the octant partition.
+    scratch: Vec<usize>,
 }
 
 impl Octree {
     /// Builds the tree (deterministic: stable octant partition).
     pub fn build(&mut self, positions: &[Vector3<f64>]) {
         self.nodes.clear();
+        self.links.clear();
         self.order.clear();
         self.order.extend(0..positions.len());
+        self.sorted.clear();
         if positions.is_empty() {
             return;
         }
@@ -54,6 +63,7 @@ impl Octree {
         }
         let size = (hi - lo).max().max(f64::MIN_POSITIVE);
         self.split(positions, 0, positions.len(), lo, size, 0);
+        self.sorted.extend(self.order.iter().map(|&i| positions[i]));
     }
 
     /// Adds the node of order[start..end] in the cube (corner, size); returns its index.
@@ -76,7 +86,7 @@ impl Octree {
             centre,
             count: end - start,
             size,
-            children: Vec::new(),
+            children: (0, 0),
             range: (start, end),
         });
         if end - start <= LEAF || depth == MAX_DEPTH {
@@ -88,21 +98,23 @@ impl Octree {
             (p.x >= mid.x) as usize + 2 * (p.y >= mid.y) as usize + 4 * (p.z >= mid.z) as usize
         };
         // stable counting sort of the slice by octant
-        let slice: Vec<usize> = self.order[start..end].to_vec();
+        self.scratch.clear();
+        self.scratch.extend_from_slice(&self.order[start..end]);
         let mut bounds = [0usize; 9];
-        for &i in &slice {
+        for &i in &self.scratch {
             bounds[octant(&positions[i]) + 1] += 1;
         }
         for k in 1..9 {
             bounds[k] += bounds[k - 1];
         }
         let mut fill = bounds;
-        for &i in &slice {
+        for &i in &self.scratch {
             let o = octant(&positions[i]);
             self.order[start + fill[o]] = i;
             fill[o] += 1;
         }
-        let mut children = Vec::new();
+        let mut children = [0u32; 8];
+        let mut count = 0;
         for o in 0..8 {
             let (a, b) = (start + bounds[o], start + bounds[o + 1]);
             if a < b {
@@ -111,10 +123,13 @@ impl Octree {
                     ((o >> 1) & 1) as f64 * half,
                     ((o >> 2) & 1) as f64 * half,
                 );
-                children.push(self.split(positions, a, b, corner + offset, half, depth + 1));
+                children[count] = self.split(positions, a, b, corner + offset, half, depth + 1);
+                count += 1;
             }
         }
-        self.nodes[index].children = children;
+        let first = self.links.len() as u32;
+        self.links.extend_from_slice(&children[..count]);
+        self.nodes[index].children = (first, first + count as u32);
         index as u32
     }
 
@@ -141,15 +156,17 @@ impl Octree {
             let far = node.size * node.size < theta * theta * (node.centre - ri).norm_squared();
             if far {
                 total += node.count as f64 * pair(ri, &node.centre);
-            } else if node.children.is_empty() {
-                for &j in &self.order[node.range.0..node.range.1] {
+            } else if node.children.0 == node.children.1 {
+                let (a, b) = node.range;
+                for (&j, rj) in self.order[a..b].iter().zip(&self.sorted[a..b]) {
                     if j != i {
-                        total += pair(ri, &positions[j]);
+                        total += pair(ri, rj);
                     }
                 }
             } else {
                 // reverse, so children are visited in octant order
-                for &c in node.children.iter().rev() {
+                let (a, b) = node.children;
+                for &c in self.links[a as usize..b as usize].iter().rev() {
                     stack[top] = c;
                     top += 1;
                 }
