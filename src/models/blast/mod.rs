@@ -2,7 +2,8 @@
 //! and B fields with drag and, optionally, contact, damping, friction, bonding, near-field
 //! forces and rotation.
 //!
-//! - `params`: parameters, defaults (the source's examples), validation.
+//! - `params`, `switches`: parameters, defaults (the source's examples), validation, and the
+//!   interaction switches.
 //! - `cloud`: the state and the blast initial condition (C1).
 //! - `field`: Lorentz force (C2), drag laws (C3), Boris rotation, exact drag decay.
 //! - `pairs`, `interact`, `tree`: pair forces (C4–C8), the per-particle force gather, and
@@ -19,6 +20,7 @@ pub mod pairs;
 pub mod params;
 pub mod snapshot;
 pub mod study;
+pub mod switches;
 pub mod trapezoid;
 pub mod tree;
 
