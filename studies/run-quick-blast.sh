@@ -6,7 +6,7 @@ cargo build --release --locked
 bin=target/release/magopt
 out=results/blast/quick
 for study in studies/quick/blast-field-on-off.toml studies/quick/blast-aspect-vs-field.toml \
-             studies/quick/blast-interacting.toml; do
+             studies/quick/blast-interacting.toml studies/quick/blast-near-field-strength.toml; do
   name=$(basename "$study" .toml)
   rm -rf "$out/$name"
   "$bin" sweep "$study" --out "$out/$name"
