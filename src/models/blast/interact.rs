@@ -27,6 +27,8 @@ pub struct Interactor {
     near: Option<(NeighborList<3>, f64)>,
     /// Barnes–Hut tree and opening angle (θ > 0 only).
     tree: Option<(Octree, f64)>,
+    /// Near-field forces from the tree, per particle, N.
+    tree_forces: Vec<Vector3<f64>>,
     /// Bonded partners of each particle with the contact area at bonding, ascending.
     bonds: Vec<Vec<(u32, f64)>>,
     radii: Vec<f64>,
@@ -48,6 +50,7 @@ impl Interactor {
             near,
             tree: (params.interactions.near_field && params.near_field.theta > 0.0)
                 .then(|| (Octree::default(), params.near_field.theta)),
+            tree_forces: vec![Vector3::zeros(); n],
             bonds: vec![Vec::new(); n],
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
@@ -89,8 +92,10 @@ impl Interactor {
         if let Some((list, _)) = &mut self.near {
             list.update(&cloud.positions, &self.near_radii);
         }
-        if let Some((tree, _)) = &mut self.tree {
+        if let Some((tree, theta)) = &mut self.tree {
             tree.build(&cloud.positions);
+            let law = &self.law;
+            tree.sum_all(*theta, |a, b| law.near_field(a, b), &mut self.tree_forces);
         }
         let this = &*self;
         forces
@@ -144,10 +149,8 @@ impl Interactor {
     /// Near-field force on i: exact over all j, over the cut-off list, or from the tree.
     fn near_field_on(&self, cloud: &Cloud, i: usize) -> Vector3<f64> {
         let ri = &cloud.positions[i];
-        if let Some((tree, theta)) = &self.tree {
-            return tree.sum(&cloud.positions, i, *theta, |a, b| {
-                self.law.near_field(a, b)
-            });
+        if self.tree.is_some() {
+            return self.tree_forces[i];
         }
         let mut sum = Vector3::zeros();
         match &self.near {

@@ -2,10 +2,14 @@
 //! α_k = ᾱ_k m_i m_j the pair force is linear in m_j, so a distant group of equal particles
 //! acts, to second order in (cell size / distance), like their count at their centre of mass
 //! (the first-order term vanishes about the centre of mass). A cell is used whole when
-//! size < θ · distance; θ = 0 opens every cell (the exact sum). The tree is built sequentially
-//! and each particle walks it alone, so forces are bit-identical at any thread count.
+//! size < θ · distance; θ = 0 opens every cell (the exact sum). The tree is walked once per
+//! leaf (the distance is taken to the leaf's bounding box, so the test is stricter than per
+//! particle) and the leaf's interaction list is applied to each of its particles. The tree is
+//! built sequentially, leaves are processed in parallel, and each particle's sum has a fixed
+//! order, so forces are bit-identical at any thread count.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 /// Particles per leaf.
 const LEAF: usize = 8;
@@ -42,12 +46,17 @@ pub struct Octree {
     sorted: Vec<Vector3<f64>>,
     /// Scratch for the octant partition.
     scratch: Vec<usize>,
+    /// Leaf node indices in tree order.
+    leaves: Vec<u32>,
+    /// Forces in tree order.
+    buffer: Vec<Vector3<f64>>,
 }
 
 impl Octree {
     /// Builds the tree (deterministic: stable octant partition).
     pub fn build(&mut self, positions: &[Vector3<f64>]) {
         self.nodes.clear();
+        self.leaves.clear();
         self.links.clear();
         self.order.clear();
         self.order.extend(0..positions.len());
@@ -90,6 +99,7 @@ impl Octree {
             range: (start, end),
         });
         if end - start <= LEAF || depth == MAX_DEPTH {
+            self.leaves.push(index as u32);
             return index as u32;
         }
         let half = 0.5 * size;
@@ -133,45 +143,81 @@ impl Octree {
         index as u32
     }
 
-    /// Σ_j pair(r_i, r_j) over j ≠ i, with distant cells replaced by count · pair(r_i, centre)
-    /// when size < θ · distance. `pair(a, b)` is the force on a particle at a from one at b.
-    pub fn sum(
-        &self,
-        positions: &[Vector3<f64>],
-        i: usize,
+    /// Σ_j pair(r_i, r_j) over j ≠ i for every particle i, into `out` (indexed like the
+    /// positions of the last build), with distant cells replaced by count · pair(r_i, centre)
+    /// when size < θ · (distance from the centre to the leaf's bounding box). `pair(a, b)` is
+    /// the force on a particle at a from one at b.
+    pub fn sum_all(
+        &mut self,
         theta: f64,
-        pair: impl Fn(&Vector3<f64>, &Vector3<f64>) -> Vector3<f64>,
-    ) -> Vector3<f64> {
-        let ri = &positions[i];
-        let mut total = Vector3::zeros();
-        if self.nodes.is_empty() {
-            return total;
+        pair: impl Fn(&Vector3<f64>, &Vector3<f64>) -> Vector3<f64> + Sync,
+        out: &mut [Vector3<f64>],
+    ) {
+        let mut buffer = std::mem::take(&mut self.buffer);
+        buffer.clear();
+        buffer.resize(self.order.len(), Vector3::zeros());
+        let mut slices = Vec::with_capacity(self.leaves.len());
+        let mut rest = &mut buffer[..];
+        for &leaf in &self.leaves {
+            let (a, b) = self.nodes[leaf as usize].range;
+            let (head, tail) = rest.split_at_mut(b - a);
+            slices.push((a, b, head));
+            rest = tail;
         }
-        // fixed stack (no allocation per particle): ≤ 8 entries per level of a shallow tree
+        let this = &*self;
+        slices
+            .into_par_iter()
+            .for_each(|(a, b, forces)| this.leaf_sums(a, b, theta, &pair, forces));
+        for (&i, f) in self.order.iter().zip(&buffer) {
+            out[i] = *f;
+        }
+        self.buffer = buffer;
+    }
+
+    /// Sums for the particles a..b (tree order) of one leaf.
+    fn leaf_sums(
+        &self,
+        a: usize,
+        b: usize,
+        theta: f64,
+        pair: &impl Fn(&Vector3<f64>, &Vector3<f64>) -> Vector3<f64>,
+        forces: &mut [Vector3<f64>],
+    ) {
+        let own = &self.sorted[a..b];
+        let (mut lo, mut hi) = (own[0], own[0]);
+        for p in own {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        // fixed stack (no allocation per leaf): ≤ 8 entries per level of a shallow tree
         let mut stack = [0u32; STACK];
         let mut top = 1;
         while top > 0 {
             top -= 1;
             let node = &self.nodes[stack[top] as usize];
-            let far = node.size * node.size < theta * theta * (node.centre - ri).norm_squared();
-            if far {
-                total += node.count as f64 * pair(ri, &node.centre);
+            let c = node.centre;
+            let gap = (lo - c).sup(&(c - hi)).sup(&Vector3::zeros());
+            if node.size * node.size < theta * theta * gap.norm_squared() {
+                for (f, ri) in forces.iter_mut().zip(own) {
+                    *f += node.count as f64 * pair(ri, &c);
+                }
             } else if node.children.0 == node.children.1 {
-                let (a, b) = node.range;
-                for (&j, rj) in self.order[a..b].iter().zip(&self.sorted[a..b]) {
-                    if j != i {
-                        total += pair(ri, rj);
+                let (m0, m1) = node.range;
+                for (k, (f, ri)) in forces.iter_mut().zip(own).enumerate() {
+                    for (m, rj) in (m0..m1).zip(&self.sorted[m0..m1]) {
+                        if m != a + k {
+                            *f += pair(ri, rj);
+                        }
                     }
                 }
             } else {
                 // reverse, so children are visited in octant order
-                let (a, b) = node.children;
-                for &c in self.links[a as usize..b as usize].iter().rev() {
-                    stack[top] = c;
+                let (c0, c1) = node.children;
+                for &child in self.links[c0 as usize..c1 as usize].iter().rev() {
+                    stack[top] = child;
                     top += 1;
                 }
             }
         }
-        total
     }
 }
