@@ -110,8 +110,11 @@ pub fn check_packing(params: &BlastParams) -> Result<()> {
 /// it only, so placement is O(N) per accepted particle's neighbourhood, not O(N²).
 fn random_sequential_addition(params: &BlastParams, seed: u64) -> Result<Vec<Vector3<f64>>> {
     let (r, room) = (params.radius, params.cloud_radius - params.radius);
-    let cell = 2.0 * r;
-    let side = ((2.0 * room / cell).ceil() as usize).max(1);
+    // cells of at least 2R (so the 27 around a candidate hold every sphere it could touch),
+    // and no more cells than about 8 per particle (a dilute cloud of tiny spheres)
+    let most = (2.0 * (params.particles as f64).cbrt()).ceil().max(1.0);
+    let side = (2.0 * room / (2.0 * r)).floor().clamp(1.0, most) as usize;
+    let cell = 2.0 * room / side as f64;
     let mut cells: Vec<Vec<u32>> = vec![Vec::new(); side * side * side];
     let coords = |p: &Vector3<f64>| -> [usize; 3] {
         std::array::from_fn(|a| (((p[a] + room) / cell).floor().max(0.0) as usize).min(side - 1))
@@ -128,7 +131,7 @@ fn random_sequential_addition(params: &BlastParams, seed: u64) -> Result<Vec<Vec
         let overlaps = neighbour_cells(c, side).any(|k| {
             cells[k]
                 .iter()
-                .any(|&j| (positions[j as usize] - p).norm_squared() < cell * cell)
+                .any(|&j| (positions[j as usize] - p).norm_squared() < 4.0 * r * r)
         });
         if overlaps {
             failures += 1;
@@ -206,6 +209,15 @@ mod tests {
         let cloud = Cloud::blast(&p, 9).unwrap();
         let negative = cloud.charge_per_mass.iter().filter(|q| **q < 0.0).count();
         assert!((100..200).contains(&negative), "{negative}");
+    }
+
+    #[test]
+    fn dilute_cloud_of_tiny_spheres_uses_a_small_grid() {
+        let mut p = small();
+        p.radius = 1e-6;
+        p.particles = 50;
+        let cloud = Cloud::blast(&p, 1).unwrap();
+        assert_eq!(cloud.len(), 50);
     }
 
     #[test]
