@@ -95,6 +95,8 @@ fn bad_input_is_one_line_with_exit_code_2() {
         (&["--field", "NaN"], "field"),
         (&["--energy", "nan"], "energy"),
         (&["--duration", "0"], "duration"),
+        (&["--duration", "1e9"], "steps"),
+        (&["--samples", "1e9"], "samples"),
         (&["--field-direction", "0,0,0"], "field"),
         (&["--interacting", "--interactions", "glue"], "interactions"),
     ];

@@ -6,6 +6,12 @@ use nalgebra::Vector3;
 pub use super::switches::{Interactions, INTERACTION_NAMES};
 use crate::{Error, Result};
 
+/// Most series samples a run may ask for.
+pub const MAX_SAMPLES: usize = 100_000;
+
+/// Most time steps a run may need (duration over the longest allowed step).
+pub const MAX_STEPS: f64 = 1e9;
+
 /// Drag law (C3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DragLaw {
@@ -334,6 +340,25 @@ impl BlastParams {
             return Err(Error::input(
                 "particles, samples and iterations must be whole numbers ≥ 1",
             ));
+        }
+        if self.samples > MAX_SAMPLES {
+            return Err(Error::input(format!(
+                "samples: {} is not allowed (need 1 ≤ samples ≤ {MAX_SAMPLES})",
+                self.samples
+            )));
+        }
+        let fewest_step = if self.interactions.any() || s.integrator == Integrator::Trapezoidal {
+            s.dt_max
+        } else {
+            s.dt
+        };
+        if self.duration / fewest_step > MAX_STEPS {
+            return Err(Error::input(format!(
+                "duration {} s with steps of {} s needs {:.1e} steps (allowed: at most {MAX_STEPS:.0e}); use a longer step or a shorter duration",
+                self.duration,
+                fewest_step,
+                self.duration / fewest_step
+            )));
         }
         if s.dt_initial > s.dt_max {
             return Err(Error::input(format!(
