@@ -121,6 +121,19 @@ impl<const D: usize> CellGrid<D> {
             lo = SVector::zeros();
             hi = SVector::zeros();
         }
+        // Cells of at least `cell`; coarser where a sparse, spread-out set would otherwise
+        // need more cells than about 4 per point (larger cells still hold every pair within
+        // `cell` in the 3^D around a point).
+        let target = (4 * positions.len()).max(64) as f64;
+        let mut cell = cell;
+        let count = |cell: f64| {
+            (0..D)
+                .map(|a| ((hi[a] - lo[a]) / cell).floor() + 1.0)
+                .product::<f64>()
+        };
+        while count(cell) > target {
+            cell *= 2.0;
+        }
         let dims = std::array::from_fn(|a| (((hi[a] - lo[a]) / cell).floor() as usize + 1).max(1));
         let mut grid = Self {
             origin: lo,
@@ -218,6 +231,19 @@ mod tests {
                 .collect();
             assert_eq!(list.of(i), &brute[..], "particle {i}");
         }
+    }
+
+    #[test]
+    fn sparse_spread_out_points_get_a_bounded_grid() {
+        let positions = vec![
+            Vector3::zeros(),
+            Vector3::new(1e6, 1e6, 1e6),
+            Vector3::new(0.5, 0.0, 0.0),
+        ];
+        let mut list = NeighborList::<3>::new(0.0);
+        list.build(&positions, &[0.3; 3]);
+        assert_eq!(list.of(0), &[2]);
+        assert!(list.of(1).is_empty());
     }
 
     #[test]

@@ -139,7 +139,7 @@ impl PhysicsArgs {
 }
 
 /// A parameter error's message without its leading "name: ".
-fn strip_name(e: &Error, name: &str) -> String {
+pub(super) fn strip_name(e: &Error, name: &str) -> String {
     let text = e.to_string();
     text.strip_prefix(&format!("{name}: "))
         .unwrap_or(&text)

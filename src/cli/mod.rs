@@ -5,6 +5,7 @@ mod align;
 mod analyze;
 mod bed;
 mod bench;
+mod blast;
 mod study;
 
 use clap::{Parser, Subcommand};
@@ -32,6 +33,8 @@ enum Command {
     Materials,
     /// One alignment run: settle a powder, switch on field and pressure, report τ.
     Align(align::AlignArgs),
+    /// One blast run: a charged cloud in E and B fields with drag (and interactions).
+    Blast(Box<blast::BlastArgs>),
     /// Find the field that aligns the powder fastest (the headline study).
     OptimizeField(align::OptimizeArgs),
     /// One compression cycle of a bed of repelling magnets under a piston.
@@ -97,6 +100,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Align(args) => align::run_align(&db, &args),
+        Command::Blast(args) => blast::run_blast(&args),
         Command::OptimizeField(args) => align::run_optimize(&db, &args),
         Command::Bed(args) => bed::run(&args, false),
         Command::Damper(args) => bed::run(&args, true),

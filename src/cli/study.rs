@@ -8,6 +8,7 @@ use super::{command_line, threads};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
 use crate::models::bed::study::BedModel;
+use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
 use crate::study::model::StudyModel;
 use crate::study::records;
@@ -94,6 +95,10 @@ macro_rules! with_model {
                 let $m = &BedModel::damper();
                 $body
             }
+            "blast" => {
+                let $m = &BlastModel;
+                $body
+            }
             other => Err(Error::input(format!(
                 "{}: model: '{other}' is not available (available: {})",
                 $origin,
@@ -104,7 +109,7 @@ macro_rules! with_model {
 }
 
 /// The models a study file may name.
-const MODELS: &[&str] = &["align", "bed", "damper"];
+const MODELS: &[&str] = &["align", "bed", "damper", "blast"];
 
 fn bar() -> ProgressBar {
     let bar = ProgressBar::new(0);

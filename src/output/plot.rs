@@ -299,15 +299,19 @@ fn multiples(lo: f64, hi: f64, step: f64) -> Vec<f64> {
     if !(first.is_finite() && last.is_finite()) || last - first > 10_000.0 {
         return Vec::new();
     }
-    let mut out = Vec::new();
-    let mut k = first;
-    while k <= last {
-        let v = k * step;
-        // Snap round-off like 0.30000000000000004 and -0.
-        out.push(if v.abs() < step * 1e-9 { 0.0 } else { v });
-        k += 1.0;
-    }
-    out
+    // Count, not `k += 1.0`: beyond 2^53 that increment is lost and the loop never ends
+    // (an almost constant series far from zero, e.g. a conserved energy, gets here).
+    (0..=(last - first) as usize)
+        .map(|i| {
+            let v = (first + i as f64) * step;
+            // Snap round-off like 0.30000000000000004 and -0.
+            if v.abs() < step * 1e-9 {
+                0.0
+            } else {
+                v
+            }
+        })
+        .collect()
 }
 
 /// Linear ticks: at most `n` bold ticks at a nice step, light ticks subdividing it.
@@ -995,6 +999,12 @@ fn draw_legend<'a, 'b: 'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ticks_of_an_almost_constant_range_far_from_zero_terminate() {
+        let (bold, ..) = linear_ticks(9978.355613635358, 9978.355613635359, 6);
+        assert!(bold.len() <= 10_001);
+    }
     use crate::output::atomic::tests::test_dir;
 
     fn check_png(path: &Path) {

@@ -5,6 +5,7 @@
 mod align;
 mod analyze;
 mod bed;
+mod blast;
 
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -27,6 +28,8 @@ enum Target {
     Analyze,
     /// One full compression cycle of the mono-disperse bed (dry friction, defaults).
     Bed,
+    /// The blast model: the source's non-interacting and interacting examples.
+    Blast,
 }
 
 impl Target {
@@ -35,6 +38,7 @@ impl Target {
             Target::Align => "align",
             Target::Analyze => "analyze",
             Target::Bed => "bed",
+            Target::Blast => "blast",
         }
     }
 }
@@ -45,7 +49,8 @@ pub struct BenchArgs {
     /// What to benchmark.
     #[arg(value_enum, default_value = "align")]
     target: Target,
-    /// Particle counts, comma-separated [default: 1000,10000 for align, 368 for bed].
+    /// Particle counts, comma-separated [default: 1000,10000 for align, 368 for bed, 2000 for
+    /// blast].
     #[arg(long, value_delimiter = ',')]
     particles: Option<Vec<String>>,
     /// Thread counts, comma-separated.
@@ -67,6 +72,12 @@ pub struct BenchArgs {
     /// bed: piston speed (bare number: mm/s); faster means fewer steps per cycle.
     #[arg(long, default_value = "5.63mm/s")]
     velocity: String,
+    /// blast: simulated time of the interacting example (s, ms; bare number: s).
+    #[arg(long, default_value = "1s")]
+    interacting_duration: String,
+    /// blast: Barnes–Hut opening angle of the interacting example's near field (0 = exact).
+    #[arg(long, default_value_t = 0.0)]
+    near_field_theta: f64,
     /// Also write the rows as JSON to DIR/bench-<model>.json.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
@@ -81,6 +92,7 @@ pub fn run(db: &MaterialDb, args: &BenchArgs) -> Result<()> {
         Target::Align => align::run(db, args)?,
         Target::Analyze => analyze::run(args)?,
         Target::Bed => bed::run(args)?,
+        Target::Blast => blast::run(args)?,
     };
     if let Some(dir) = &args.out {
         let name = args.target.name();

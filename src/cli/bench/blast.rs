@@ -1,0 +1,77 @@
+//! `magopt bench blast`: the source's non-interacting example (Boris–Strang, 10⁴ steps) and
+//! the interacting example (adaptive trapezoidal rule; near field exact or Barnes–Hut) per
+//! particle count and thread count: wall time, steps and particle-steps per second.
+
+use serde_json::json;
+
+use super::{count, counts, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use crate::models::blast::{run as run_blast, BlastParams, Interactions};
+use crate::units::{parse_quantity, Dimension};
+use crate::{Error, Result};
+
+pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
+    let duration = parse_quantity(&args.interacting_duration, Dimension::Time, "s")
+        .map_err(|e| Error::input(format!("--interacting-duration: {e}")))?;
+    println!(
+        "blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m); near field θ = {}",
+        args.near_field_theta
+    );
+    println!(
+        "{:>6} {:>7} {:>12} {:>9} {:>8} {:>9} {:>10} {:>16} {:>13}",
+        "N",
+        "threads",
+        "model",
+        "time (s)",
+        "steps",
+        "rejected",
+        "wall (s)",
+        "particle-steps/s",
+        "peak RSS (MB)"
+    );
+    let mut rows = Vec::new();
+    for n in counts("particles", args.particles.as_deref(), &[2000])? {
+        for t_text in &args.threads {
+            let threads = count("threads", t_text)?;
+            let pool = pool(threads)?;
+            for interacting in [false, true] {
+                let mut p = BlastParams::source_example();
+                p.particles = n;
+                p.samples = 10;
+                if interacting {
+                    p.interactions = Interactions::all();
+                    p.duration = duration;
+                    p.near_field.theta = args.near_field_theta;
+                }
+                p.validate()?;
+                reset_peak_rss();
+                let o = pool.install(|| run_blast(&p, 1, &[]))?;
+                let label = if interacting { "interacting" } else { "free" };
+                let rate = (o.stats.steps * n) as f64 / o.wall_time_s;
+                println!(
+                    "{n:>6} {threads:>7} {label:>12} {:>9} {:>8} {:>9} {:>10.3} {rate:>16.3e} {:>13.1}{}",
+                    p.duration,
+                    o.stats.steps,
+                    o.stats.rejected,
+                    o.wall_time_s,
+                    peak_rss_mb(),
+                    o.failure
+                        .as_ref()
+                        .map_or(String::new(), |f| format!("  failed: {f}"))
+                );
+                rows.push(json!({
+                    "particles": n,
+                    "threads": threads,
+                    "model": label,
+                    "simulated_s": p.duration,
+                    "steps": o.stats.steps,
+                    "rejected": o.stats.rejected,
+                    "wall_s": o.wall_time_s,
+                    "particle_steps_per_s": rate,
+                    "failure": o.failure,
+                    "peak_rss_mb": peak_rss_mb(),
+                }));
+            }
+        }
+    }
+    Ok(rows)
+}

@@ -1,0 +1,379 @@
+//! Parameters of a blast run (spec blast.md), SI inside, with the source's defaults and a
+//! `validate()` that names the offending field, its value and the allowed range.
+
+use nalgebra::Vector3;
+
+pub use super::switches::{Interactions, INTERACTION_NAMES};
+use crate::{Error, Result};
+
+/// Most series samples a run may ask for.
+pub const MAX_SAMPLES: usize = 100_000;
+
+/// Most time steps a run may need (duration over the longest allowed step).
+pub const MAX_STEPS: f64 = 1e9;
+
+/// Drag law (C3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DragLaw {
+    /// Quadratic drag with the constant coefficient `drag_coefficient`.
+    Quadratic,
+    /// Quadratic drag with Chow's piecewise C_D(Re).
+    Chow,
+    /// Stokes drag c = 6π μ_f R.
+    Stokes,
+    /// No drag.
+    None,
+}
+
+/// Time integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Integrator {
+    /// Boris for the non-interacting case, trapezoidal (C9, C10) for the interacting case.
+    Auto,
+    /// Strang splitting: half drift, exact half drag, Boris rotation, exact half drag, half
+    /// drift (non-interacting only). Conserves |v| exactly under B alone.
+    Boris,
+    /// The source's forward-Euler update v ← v + Δt/m Ψ(t), r ← r + Δt v(t) (non-interacting).
+    Euler,
+    /// Generalized trapezoidal rule (C9) with fixed-point iterations and adaptive Δt (C10).
+    Trapezoidal,
+}
+
+/// Contact, friction and bonding constants (C4–C7), SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactParams {
+    /// K_p0, N/m² (C4).
+    pub stiffness: f64,
+    /// p_p (C4).
+    pub exponent: f64,
+    /// Softening rate a of K_p = max(K_p0 e^{−a(Θ/Θ*−1)}, K_p^lim).
+    pub softening_rate: f64,
+    /// Particle temperature Θ, K.
+    pub temperature: f64,
+    /// Reference temperature Θ*, K.
+    pub reference_temperature: f64,
+    /// Stiffness floor K_p^lim, N/m².
+    pub stiffness_floor: f64,
+    /// Damping c_cd, N·s/m³ (C5).
+    pub damping: f64,
+    /// Stick stiffness K_f, N·s⁻¹·m⁻³ (force K_f |Δv_τ| A Δt) (C6).
+    pub friction_stiffness: f64,
+    /// Static friction coefficient μ_s.
+    pub static_friction: f64,
+    /// Dynamic friction coefficient μ_d.
+    pub dynamic_friction: f64,
+    /// Bond stiffness K_nb, N/m² (C7).
+    pub bond_stiffness: f64,
+    /// Bond exponent p_b.
+    pub bond_exponent: f64,
+    /// Tangential bond stiffness K_rb (force K_rb |Δv_τ| A Δt).
+    pub bond_tangential: f64,
+    /// Bonding strain ε*: a pair bonds once its overlap strain δ/(R_i+R_j) reaches it. Not
+    /// given by the source; 0.05 (a forceful impact, five per cent of the pair's radii sum).
+    pub bond_strain: f64,
+}
+
+/// Near-field law (C8), mass-based α_k = ᾱ_k m_i m_j.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NearFieldParams {
+    /// ᾱ1, N·m^{β1}/kg² (attraction).
+    pub attraction: f64,
+    /// β1.
+    pub attraction_exponent: f64,
+    /// ᾱ2, N·m^{β2}/kg² (repulsion).
+    pub repulsion: f64,
+    /// β2.
+    pub repulsion_exponent: f64,
+    /// Cut-off distance, m; 0 means none. The 1/r attraction is long-ranged, so a cut-off
+    /// drops most of the collective pull (measured in tests/blast_interactions.rs).
+    pub cutoff: f64,
+    /// Barnes–Hut opening angle θ (cells with size < θ · distance act from their centre of
+    /// mass); 0 means the exact all-pairs sum (the default).
+    pub theta: f64,
+}
+
+/// Time stepping (C9, C10).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepParams {
+    /// Integrator.
+    pub integrator: Integrator,
+    /// Fixed step of the explicit schemes, s.
+    pub dt: f64,
+    /// Initial step Δt_0 of the trapezoidal scheme, s.
+    pub dt_initial: f64,
+    /// Step cap Δt_max, s.
+    pub dt_max: f64,
+    /// Trapezoidal weight φ ∈ [0, 1].
+    pub phi: f64,
+    /// Desired iteration count K_d.
+    pub iterations: usize,
+    /// Relative tolerance TOL of the fixed-point iteration.
+    pub tolerance: f64,
+    /// Smallest step before the run is declared failed, s.
+    pub dt_min: f64,
+}
+
+/// Everything one blast run needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlastParams {
+    /// Magnetic flux density |B| along `field_direction`, T (uniform, static; may be 0).
+    pub field_strength: f64,
+    /// Unit vector of B (also the axis of the "along B" observables when B = 0).
+    pub field_direction: Vector3<f64>,
+    /// Electric field strength along `electric_direction`, V/m (uniform, static).
+    pub electric_strength: f64,
+    /// Unit vector of E; None: along B.
+    pub electric_direction: Option<Vector3<f64>>,
+    /// Charge per mass q/m, C/kg.
+    pub charge_per_mass: f64,
+    /// Fraction of particles with the opposite charge sign (0 = all of one sign).
+    pub negative_fraction: f64,
+    /// Detonation energy W, J (C1).
+    pub energy: f64,
+    /// Number of particles N.
+    pub particles: usize,
+    /// Particle radius R, m.
+    pub radius: f64,
+    /// Particle density ρ, kg/m³.
+    pub density: f64,
+    /// Initial cloud radius R_0, m.
+    pub cloud_radius: f64,
+    /// Air density ρ_a, kg/m³.
+    pub air_density: f64,
+    /// Air viscosity μ_f, Pa·s.
+    pub air_viscosity: f64,
+    /// Drag law.
+    pub drag: DragLaw,
+    /// Constant C_D of the quadratic law.
+    pub drag_coefficient: f64,
+    /// Duration, s.
+    pub duration: f64,
+    /// Number of series samples over the duration (plus t = 0).
+    pub samples: usize,
+    /// Interaction terms.
+    pub interactions: Interactions,
+    /// Contact constants.
+    pub contact: ContactParams,
+    /// Near-field constants.
+    pub near_field: NearFieldParams,
+    /// Time stepping.
+    pub step: StepParams,
+    /// Wanted aspect ratio of the `shape_error` metric.
+    pub target_aspect_ratio: f64,
+}
+
+impl BlastParams {
+    /// The source's non-interacting example: B = (10, 0, 0) T, E = 0, 10 C/kg, 1 s with
+    /// Δt = 1e-4 s, W = 10 kJ, ρ_a = 1.225 kg/m³, R_0 = 1 m, N = 2000, R = 0.05 m,
+    /// ρ = 7000 kg/m³; Chow's drag law; the interacting constants of the spec's example.
+    pub fn source_example() -> Self {
+        Self {
+            field_strength: 10.0,
+            field_direction: Vector3::x(),
+            electric_strength: 0.0,
+            electric_direction: None,
+            charge_per_mass: 10.0,
+            negative_fraction: 0.0,
+            energy: 1e4,
+            particles: 2000,
+            radius: 0.05,
+            density: 7000.0,
+            cloud_radius: 1.0,
+            air_density: 1.225,
+            air_viscosity: 1.8e-5,
+            drag: DragLaw::Chow,
+            drag_coefficient: 0.5,
+            duration: 1.0,
+            samples: 50,
+            interactions: Interactions::default(),
+            contact: ContactParams {
+                stiffness: 1e7,
+                exponent: 2.0,
+                softening_rate: 1.0,
+                temperature: 300.0,
+                reference_temperature: 500.0,
+                stiffness_floor: 1e6,
+                damping: 1e5,
+                friction_stiffness: 1e7,
+                static_friction: 0.4,
+                dynamic_friction: 0.3,
+                bond_stiffness: 1e6,
+                bond_exponent: 2.0,
+                bond_tangential: 1e3,
+                bond_strain: 0.05,
+            },
+            near_field: NearFieldParams {
+                attraction: 0.5,
+                attraction_exponent: 1.0,
+                repulsion: 0.01,
+                repulsion_exponent: 2.0,
+                cutoff: 0.0,
+                theta: 0.0,
+            },
+            step: StepParams {
+                integrator: Integrator::Auto,
+                dt: 1e-4,
+                dt_initial: 1e-5,
+                dt_max: 2.5e-4,
+                phi: 0.5,
+                iterations: 10,
+                tolerance: 5e-4,
+                dt_min: 1e-12,
+            },
+            target_aspect_ratio: 2.0,
+        }
+    }
+
+    /// The integrator actually used.
+    pub fn integrator(&self) -> Integrator {
+        match self.step.integrator {
+            Integrator::Auto if self.interactions.any() => Integrator::Trapezoidal,
+            Integrator::Auto => Integrator::Boris,
+            other => other,
+        }
+    }
+
+    /// Mass of one particle m = ρ 4/3 π R³, kg.
+    pub fn particle_mass(&self) -> f64 {
+        self.density * 4.0 / 3.0 * std::f64::consts::PI * self.radius.powi(3)
+    }
+
+    /// Unit vector along B: the axis of "along B" observables.
+    pub fn field_axis(&self) -> Vector3<f64> {
+        self.field_direction
+    }
+
+    /// B, T.
+    pub fn field(&self) -> Vector3<f64> {
+        self.field_direction * self.field_strength
+    }
+
+    /// E, V/m.
+    pub fn electric_field(&self) -> Vector3<f64> {
+        self.electric_direction.unwrap_or(self.field_direction) * self.electric_strength
+    }
+
+    /// Checks every value; the error names the field, its value and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let vectors = [
+            ("field", self.field()),
+            ("electric_field", self.electric_field()),
+        ];
+        for (name, v) in vectors {
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(Error::input(format!("{name}: {v:?} is not finite")));
+            }
+        }
+        let c = &self.contact;
+        let n = &self.near_field;
+        let s = &self.step;
+        let positive = [
+            ("energy", self.energy),
+            ("radius", self.radius),
+            ("density", self.density),
+            ("cloud_radius", self.cloud_radius),
+            ("air_viscosity", self.air_viscosity),
+            ("duration", self.duration),
+            ("dt", s.dt),
+            ("dt_initial", s.dt_initial),
+            ("dt_max", s.dt_max),
+            ("tolerance", s.tolerance),
+            ("temperature", c.temperature),
+            ("reference_temperature", c.reference_temperature),
+            ("contact_exponent", c.exponent),
+            ("bond_exponent", c.bond_exponent),
+            ("bond_strain", c.bond_strain),
+        ];
+        for (name, x) in positive {
+            if !(x.is_finite() && x > 0.0) {
+                return Err(Error::input(format!(
+                    "{name}: {x} is not allowed (need a finite value > 0)"
+                )));
+            }
+        }
+        let non_negative = [
+            ("charge_per_mass", self.charge_per_mass.abs()),
+            ("air_density", self.air_density),
+            ("drag_coefficient", self.drag_coefficient),
+            ("contact_stiffness", c.stiffness),
+            ("softening_rate", c.softening_rate),
+            ("stiffness_floor", c.stiffness_floor),
+            ("contact_damping", c.damping),
+            ("friction_stiffness", c.friction_stiffness),
+            ("static_friction", c.static_friction),
+            ("dynamic_friction", c.dynamic_friction),
+            ("bond_stiffness", c.bond_stiffness),
+            ("bond_tangential", c.bond_tangential),
+            ("near_field_attraction", n.attraction),
+            ("near_field_attraction_exponent", n.attraction_exponent),
+            ("near_field_repulsion", n.repulsion),
+            ("near_field_repulsion_exponent", n.repulsion_exponent),
+            ("near_field_cutoff", n.cutoff),
+            ("near_field_theta", n.theta),
+            ("target_aspect_ratio", self.target_aspect_ratio),
+        ];
+        for (name, x) in non_negative {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(Error::input(format!(
+                    "{name}: {x} is not allowed (need a finite value ≥ 0)"
+                )));
+            }
+        }
+        let unit_interval = [
+            ("negative_fraction", self.negative_fraction),
+            ("phi", s.phi),
+        ];
+        for (name, x) in unit_interval {
+            if !(0.0..=1.0).contains(&x) {
+                return Err(Error::input(format!(
+                    "{name}: {x} is not allowed (need 0 ≤ {name} ≤ 1)"
+                )));
+            }
+        }
+        if n.cutoff > 0.0 && n.theta > 0.0 {
+            return Err(Error::input(format!(
+                "near_field_cutoff {} m and near_field_theta {}: choose one (the other must be 0)",
+                n.cutoff, n.theta
+            )));
+        }
+        if self.particles == 0 || self.samples == 0 || s.iterations == 0 {
+            return Err(Error::input(
+                "particles, samples and iterations must be whole numbers ≥ 1",
+            ));
+        }
+        if self.samples > MAX_SAMPLES {
+            return Err(Error::input(format!(
+                "samples: {} is not allowed (need 1 ≤ samples ≤ {MAX_SAMPLES})",
+                self.samples
+            )));
+        }
+        let fewest_step = if self.interactions.any() || s.integrator == Integrator::Trapezoidal {
+            s.dt_max
+        } else {
+            s.dt
+        };
+        if self.duration / fewest_step > MAX_STEPS {
+            return Err(Error::input(format!(
+                "duration {} s with steps of {} s needs {:.1e} steps (allowed: at most {MAX_STEPS:.0e}); use a longer step or a shorter duration",
+                self.duration,
+                fewest_step,
+                self.duration / fewest_step
+            )));
+        }
+        if s.dt_initial > s.dt_max {
+            return Err(Error::input(format!(
+                "dt_initial: {} s is not allowed (need ≤ dt_max = {} s)",
+                s.dt_initial, s.dt_max
+            )));
+        }
+        if self.interactions.any() && matches!(s.integrator, Integrator::Boris | Integrator::Euler)
+        {
+            return Err(Error::input(format!(
+                "integrator: {:?} is for the non-interacting model only (interactions: {}); use trapezoidal or auto",
+                s.integrator,
+                self.interactions.label()
+            )));
+        }
+        super::cloud::check_packing(self)
+    }
+}
