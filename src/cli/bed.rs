@@ -8,7 +8,7 @@ use super::align::preset;
 use super::command_line;
 use crate::models::bed::report::cycle_figures;
 use crate::models::bed::study::BedModel;
-use crate::models::bed::{BedOutcome, BedParams};
+use crate::models::bed::{BedOutcome, BedParams, STRUCTURE_STAGES};
 use crate::output::{atomic, plot};
 use crate::study::model::{RunResult, StudyModel, Value};
 use crate::study::records::{self, RunRecord};
@@ -237,7 +237,7 @@ pub fn run(args: &BedArgs, damper: bool) -> Result<()> {
         let run = study.runs(&model).remove(0);
         let result = RunResult {
             status: outcome.status().into(),
-            reason: outcome.failure.clone().unwrap_or_default(),
+            reason: outcome.reason(),
             metrics: outcome
                 .metrics()
                 .into_iter()
@@ -281,10 +281,7 @@ fn json(o: &BedOutcome, p: &BedParams, seed: u64, model: &str) -> serde_json::Va
     let mut map = serde_json::Map::new();
     map.insert("model".into(), model.into());
     map.insert("status".into(), o.status().into());
-    map.insert(
-        "reason".into(),
-        o.failure.clone().unwrap_or_default().into(),
-    );
+    map.insert("reason".into(), o.reason().into());
     map.insert("seed".into(), seed.into());
     map.insert("particles".into(), p.particle_count().into());
     for (name, value) in o.metrics() {
@@ -339,6 +336,18 @@ fn summary(o: &BedOutcome, p: &BedParams, damper: bool) {
         show("smallest D̂ during the cycle", o.mean_distance_min, "⟨D⟩");
         show("D̂ at the end", o.mean_distance_end, "⟨D⟩");
         show("energy dissipated over the cycle", o.cycle_work, "J");
+        for (k, (_, label)) in STRUCTURE_STAGES.iter().enumerate() {
+            if let Some(m) = &o.structure[k] {
+                println!(
+                    "structure at {label}: n5 {:.3}, n6 {:.3}, n7 {:.3}, Ψ6 {:.3}, hexagon \
+                     regularity {:.3}, {} cells counted",
+                    m.n5, m.n6, m.n7, m.psi6, m.hexagon_regularity_mean, m.cells_counted
+                );
+            }
+        }
+    }
+    for warning in &o.warnings {
+        println!("warning: {warning}");
     }
     println!(
         "closest pair {:.3} ⟨D⟩_pair, closest wall {:.2} mm, closest to piston {:.2} mm",
