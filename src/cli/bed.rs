@@ -252,6 +252,10 @@ pub fn run(args: &BedArgs, damper: bool) -> Result<()> {
         for s in &outcome.snapshots {
             s.write(&dir.join("snapshots"), &s.label)?;
         }
+        if let Some(fits) = &outcome.damper_fits {
+            atomic::write_json_atomic(&dir.join("damper_fits.json"), &fits.json())?;
+            plot::render_png(&dir.join("damper_fits.png"), &fits.figure())?;
+        }
         if !damper && outcome.failure.is_none() {
             for (stem, figure) in cycle_figures(&outcome) {
                 plot::render_png(&dir.join(format!("{stem}.png")), &figure)?;
@@ -289,6 +293,9 @@ fn json(o: &BedOutcome, p: &BedParams, seed: u64, model: &str) -> serde_json::Va
             name.into(),
             value.map_or(serde_json::Value::Null, |v| serde_json::json!(v)),
         );
+    }
+    if let Some(fits) = &o.damper_fits {
+        map.insert("damper_fits".into(), fits.json());
     }
     map.insert("wall_time_s".into(), o.wall_time_s.into());
     map.insert("magopt_version".into(), records::VERSION.into());

@@ -10,6 +10,7 @@
 //! - `study`: `bed` and `damper` as study models.
 
 pub mod damper;
+pub mod damper_fit;
 pub mod forces;
 pub mod integrator;
 pub mod observables;
@@ -96,6 +97,9 @@ pub struct BedOutcome {
     /// Structure (analysis.md) of the particle centres at each [`STRUCTURE_STAGES`] moment;
     /// None if the run did not get there or the analysis failed (then see `warnings`).
     pub structure: [Option<StructureMetrics>; 3],
+    /// Damper: both oscillator fits of the second motion (None for a cycle, a failed run or a
+    /// failed fit, then see `warnings`).
+    pub damper_fits: Option<damper_fit::DamperFits>,
     /// Problems that leave the run valid (e.g. a structure analysis that failed).
     pub warnings: Vec<String>,
     /// Wall-clock time, s.
@@ -187,6 +191,13 @@ impl BedOutcome {
             ("mean_time_step_s", finite(self.mean_time_step)),
             ("list_builds", Some(self.list_builds as f64)),
         ];
+        let fits = self
+            .damper_fits
+            .as_ref()
+            .map(damper_fit::DamperFits::values);
+        for (j, name) in damper_fit::METRICS.iter().enumerate() {
+            metrics.push((*name, fits.and_then(|f| finite(f[j]))));
+        }
         for (k, names) in STRUCTURE_METRICS.iter().enumerate() {
             let m = self.structure[k].as_ref();
             let values = m.map(|m| {

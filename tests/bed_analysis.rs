@@ -1,11 +1,13 @@
-//! Structure metrics of `bed` runs (issue 5, item 4): a cycle records n5/n6/n7, Ψ6, hexagon
-//! regularity and cells counted at compression start, maximum compression and end; they equal
-//! `analysis::structure::analyze` on the written snapshots; a degenerate bed leaves them None
-//! with a warning instead of failing the run; the study model lists them.
+//! Analysis of `bed` and `damper` runs (issue 5, items 4 and 2): a cycle records n5/n6/n7,
+//! Ψ6, hexagon regularity and cells counted at compression start, maximum compression and end;
+//! they equal `analysis::structure::analyze` on the written snapshots; a bed without counted
+//! cells leaves them None; the study model lists them. A damper run fits its second motion with
+//! both oscillators.
 
 use magopt::analysis::snapshot::Snapshot as AnalysisSnapshot;
 use magopt::analysis::structure::analyze;
-use magopt::models::bed::params::{BedParams, Preset};
+use magopt::models::bed::damper::run_damper;
+use magopt::models::bed::params::{BedParams, Friction, Preset};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::study::BedModel;
 use magopt::models::bed::{STRUCTURE_METRICS, STRUCTURE_STAGES};
@@ -106,4 +108,51 @@ fn the_bed_study_model_sweeps_the_structure_metrics() {
     assert_eq!(r.status, "ok", "{}", r.reason);
     let n6 = r.metrics.iter().find(|(n, _)| n == "n6_max").unwrap().1;
     assert!(n6.is_some_and(|v| (0.0..=1.0).contains(&v)), "{n6:?}");
+}
+
+/// Times of the upward crossings of z = z_rest, s.
+fn upward_crossings(z: &[(f64, f64)]) -> Vec<f64> {
+    z.windows(2)
+        .filter(|w| w[0].1 < 0.0 && w[1].1 >= 0.0)
+        .map(|w| w[0].0 + (w[1].0 - w[0].0) * w[0].1 / (w[0].1 - w[1].1))
+        .collect()
+}
+
+#[test]
+fn damper_motion_is_fitted_by_both_oscillators() {
+    let mut p = BedParams::defaults();
+    p.particles = Some(24);
+    p.relaxation_time = 1.0;
+    p.piston_decay_time = 0.2;
+    p.settle_time = 0.5;
+    p.friction = Friction::Viscous;
+    p.damper_time = 1.0;
+    p.piston_mass = 0.2;
+    let o = run_damper(&p, 1, &|_| {});
+    assert!(o.failure.is_none(), "{:?}", o.failure);
+    let fits = o.damper_fits.as_ref().expect("fits");
+    let z = o.series.get("piston_displacement");
+    // Both residuals are small against the 0.2 D swing (the bed is a nearly linear spring
+    // at this amplitude); the linear damping is positive (the viscous drag dissipates).
+    for (name, fit) in [("linear", &fits.linear), ("Van der Pol", &fits.van_der_pol)] {
+        let relative = fit.rmse * fits.length_unit / fits.amplitude;
+        assert!(
+            relative < 0.05,
+            "{name}: rms residual {relative} of the amplitude"
+        );
+    }
+    assert!(fits.linear.param("lambda") > 0.0);
+    // The fitted ω agrees with the period of the upward crossings of the rest height
+    // (independent of the fit): ω² = ω_d² + λ².
+    let up = upward_crossings(z);
+    assert!(up.len() >= 3, "{up:?}");
+    let period = (up[up.len() - 1] - up[0]) / (up.len() - 1) as f64;
+    let lambda = fits.linear.param("lambda");
+    let omega = ((2.0 * std::f64::consts::PI / period).powi(2) + lambda * lambda).sqrt();
+    for fit in [&fits.linear, &fits.van_der_pol] {
+        let fitted = fit.param("omega");
+        assert!((fitted / omega - 1.0).abs() < 0.02, "{fitted} vs {omega}");
+    }
+    let metrics = o.metrics();
+    assert_eq!(metric(&metrics, "damper_linear_lambda_per_s"), Some(lambda));
 }
