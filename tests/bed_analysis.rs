@@ -7,6 +7,7 @@
 use magopt::analysis::snapshot::Snapshot as AnalysisSnapshot;
 use magopt::analysis::structure::analyze;
 use magopt::models::bed::damper::run_damper;
+use magopt::models::bed::damper_fit::{fit_damper, FIT_SAMPLES};
 use magopt::models::bed::params::{BedParams, Friction, Preset};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::study::BedModel;
@@ -155,4 +156,19 @@ fn damper_motion_is_fitted_by_both_oscillators() {
     }
     let metrics = o.metrics();
     assert_eq!(metric(&metrics, "damper_linear_lambda_per_s"), Some(lambda));
+    // Thinning the record for the fit (FIT_SAMPLES) leaves ω and λ as the full record gives
+    // them, within a few standard errors.
+    assert!(z.len() > FIT_SAMPLES, "{} samples", z.len());
+    let rest = o.damper_rest_height.unwrap();
+    let full = fit_damper(&o.series, rest, 6e-3, usize::MAX).unwrap();
+    assert!(full.time.len() == z.len() && fits.time.len() <= FIT_SAMPLES);
+    for name in ["omega", "lambda"] {
+        let (a, b) = (fits.linear.param(name), full.linear.param(name));
+        let k = fits.linear.names.iter().position(|n| *n == name).unwrap();
+        let sigma = fits.linear.std_errors[k];
+        assert!(
+            (a - b).abs() < 3.0 * sigma,
+            "{name}: {a} vs {b} (σ {sigma})"
+        );
+    }
 }

@@ -44,13 +44,27 @@ pub struct DamperFits {
     pub van_der_pol: Fit,
 }
 
+/// Most samples of z(t) a fit uses: a longer record is thinned to every k-th sample. At the
+/// default 1 ms sampling of a 2 s motion that is one sample per 5 ms, over 50 per period for
+/// the periods seen (0.3–0.45 s); the fit's cost is proportional to the sample count
+/// (`tests/bed_analysis.rs` checks that the full record gives the same ω and λ).
+pub const FIT_SAMPLES: usize = 400;
+
 /// Fits the series `piston_z` (time from the second release) of a damper run with rest height
-/// `rest` (m); z is taken in units of `length_unit` (m).
+/// `rest` (m), thinned to at most `max_samples` samples; z is taken in units of
+/// `length_unit` (m).
 ///
 /// # Errors
 /// Too few or bad samples (see [`fit_oscillator`]).
-pub fn fit_damper(series: &Series, rest: f64, length_unit: f64) -> Result<DamperFits> {
-    let (time, height): (Vec<f64>, Vec<f64>) = series.get("piston_z").iter().copied().unzip();
+pub fn fit_damper(
+    series: &Series,
+    rest: f64,
+    length_unit: f64,
+    max_samples: usize,
+) -> Result<DamperFits> {
+    let samples = series.get("piston_z");
+    let every = samples.len().div_ceil(max_samples.max(1)).max(1);
+    let (time, height): (Vec<f64>, Vec<f64>) = samples.iter().step_by(every).copied().unzip();
     let z: Vec<f64> = height.iter().map(|h| h / length_unit).collect();
     let settings = OscillatorSettings::default();
     let linear = fit_oscillator(Oscillator::Linear, &time, &z, &settings)?;
