@@ -19,3 +19,15 @@ for study in studies/quick/bed-*.toml studies/quick/damper.toml; do
   "$bin" sweep "$study" --out "results/bed/quick/$name"
   "$bin" plot "results/bed/quick/$name"
 done
+# structure studies (about a minute each) into results/structure/quick/, their figures and fits
+# (examples/structure_figures.rs), and the damper with both fits of its second motion
+for study in studies/quick/structure-*.toml; do
+  name=$(basename "$study" .toml)
+  rm -rf "results/structure/quick/$name"
+  "$bin" sweep "$study" --out "results/structure/quick/$name"
+  rm -rf "results/structure/quick/$name/runs"
+done
+cargo run --release --locked --example structure_figures -- results/structure/quick 100 22.5 3
+rm -rf results/structure/quick/damper-fit
+"$bin" damper --particles 92 --piston-mass 200g --out results/structure/quick/damper-fit
+rm -rf results/structure/quick/damper-fit/runs

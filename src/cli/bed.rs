@@ -8,7 +8,7 @@ use super::align::preset;
 use super::command_line;
 use crate::models::bed::report::cycle_figures;
 use crate::models::bed::study::BedModel;
-use crate::models::bed::{BedOutcome, BedParams};
+use crate::models::bed::{BedOutcome, BedParams, STRUCTURE_STAGES};
 use crate::output::{atomic, plot};
 use crate::study::model::{RunResult, StudyModel, Value};
 use crate::study::records::{self, RunRecord};
@@ -237,7 +237,7 @@ pub fn run(args: &BedArgs, damper: bool) -> Result<()> {
         let run = study.runs(&model).remove(0);
         let result = RunResult {
             status: outcome.status().into(),
-            reason: outcome.failure.clone().unwrap_or_default(),
+            reason: outcome.reason(),
             metrics: outcome
                 .metrics()
                 .into_iter()
@@ -251,6 +251,10 @@ pub fn run(args: &BedArgs, damper: bool) -> Result<()> {
         records::write_results(&model, &study, dir, &[record], &command_line())?;
         for s in &outcome.snapshots {
             s.write(&dir.join("snapshots"), &s.label)?;
+        }
+        if let Some(fits) = &outcome.damper_fits {
+            atomic::write_json_atomic(&dir.join("damper_fits.json"), &fits.json())?;
+            plot::render_png(&dir.join("damper_fits.png"), &fits.figure())?;
         }
         if !damper && outcome.failure.is_none() {
             for (stem, figure) in cycle_figures(&outcome) {
@@ -281,10 +285,7 @@ fn json(o: &BedOutcome, p: &BedParams, seed: u64, model: &str) -> serde_json::Va
     let mut map = serde_json::Map::new();
     map.insert("model".into(), model.into());
     map.insert("status".into(), o.status().into());
-    map.insert(
-        "reason".into(),
-        o.failure.clone().unwrap_or_default().into(),
-    );
+    map.insert("reason".into(), o.reason().into());
     map.insert("seed".into(), seed.into());
     map.insert("particles".into(), p.particle_count().into());
     for (name, value) in o.metrics() {
@@ -292,6 +293,9 @@ fn json(o: &BedOutcome, p: &BedParams, seed: u64, model: &str) -> serde_json::Va
             name.into(),
             value.map_or(serde_json::Value::Null, |v| serde_json::json!(v)),
         );
+    }
+    if let Some(fits) = &o.damper_fits {
+        map.insert("damper_fits".into(), fits.json());
     }
     map.insert("wall_time_s".into(), o.wall_time_s.into());
     map.insert("magopt_version".into(), records::VERSION.into());
@@ -339,6 +343,18 @@ fn summary(o: &BedOutcome, p: &BedParams, damper: bool) {
         show("smallest D̂ during the cycle", o.mean_distance_min, "⟨D⟩");
         show("D̂ at the end", o.mean_distance_end, "⟨D⟩");
         show("energy dissipated over the cycle", o.cycle_work, "J");
+        for (k, (_, label)) in STRUCTURE_STAGES.iter().enumerate() {
+            if let Some(m) = &o.structure[k] {
+                println!(
+                    "structure at {label}: n5 {:.3}, n6 {:.3}, n7 {:.3}, Ψ6 {:.3}, hexagon \
+                     regularity {:.3}, {} cells counted",
+                    m.n5, m.n6, m.n7, m.psi6, m.hexagon_regularity_mean, m.cells_counted
+                );
+            }
+        }
+    }
+    for warning in &o.warnings {
+        println!("warning: {warning}");
     }
     println!(
         "closest pair {:.3} ⟨D⟩_pair, closest wall {:.2} mm, closest to piston {:.2} mm",

@@ -9,6 +9,7 @@
 
 use std::time::Instant;
 
+use super::damper_fit::{fit_damper, FIT_SAMPLES};
 use super::integrator::{half_kick, Kick};
 use super::protocol::Simulation;
 use super::{BedOutcome, BedParams};
@@ -60,6 +61,10 @@ fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     piston.velocity = 0.0;
     sim.field.evaluate(&sim.particles, &sim.state);
     fall(sim, &mut piston, Some(rest))?;
+    match fit_damper(&sim.series, rest, p.reference_diameter(), FIT_SAMPLES) {
+        Ok(fits) => out.damper_fits = Some(fits),
+        Err(e) => out.warnings.push(format!("damper fits failed: {e}")),
+    }
     out.max_force = Some(
         sim.series
             .get("piston_force")

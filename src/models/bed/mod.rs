@@ -10,6 +10,7 @@
 //! - `study`: `bed` and `damper` as study models.
 
 pub mod damper;
+pub mod damper_fit;
 pub mod forces;
 pub mod integrator;
 pub mod observables;
@@ -22,6 +23,7 @@ mod validate;
 
 pub use params::BedParams;
 
+use crate::analysis::structure::StructureMetrics;
 use observables::Snapshot;
 use protocol::Simulation;
 
@@ -92,6 +94,14 @@ pub struct BedOutcome {
     pub series: Series,
     /// Snapshots (compression start, maximum compression, end).
     pub snapshots: Vec<Snapshot>,
+    /// Structure (analysis.md) of the particle centres at each [`STRUCTURE_STAGES`] moment;
+    /// None if the run did not get there or the analysis failed (then see `warnings`).
+    pub structure: [Option<StructureMetrics>; 3],
+    /// Damper: both oscillator fits of the second motion (None for a cycle, a failed run or a
+    /// failed fit, then see `warnings`).
+    pub damper_fits: Option<damper_fit::DamperFits>,
+    /// Problems that leave the run valid (e.g. a structure analysis that failed).
+    pub warnings: Vec<String>,
     /// Wall-clock time, s.
     pub wall_time_s: f64,
 }
@@ -124,6 +134,25 @@ impl BedOutcome {
         self.wall_time_s = wall_time_s;
     }
 
+    /// Analyses the centres at stage `k` of [`STRUCTURE_STAGES`]; a failure (degenerate
+    /// centres) leaves the metrics None and is recorded as a warning, never a failed run.
+    pub fn record_structure(&mut self, k: usize, position: &[nalgebra::Vector2<f64>]) {
+        match crate::analysis::structure::analyze(position) {
+            Ok(m) => self.structure[k] = Some(m),
+            Err(e) => self.warnings.push(format!(
+                "structure at {} not analysed: {e}",
+                STRUCTURE_STAGES[k].1
+            )),
+        }
+    }
+
+    /// The failure, else the warnings joined (the `reason` of a run record).
+    pub fn reason(&self) -> String {
+        self.failure
+            .clone()
+            .unwrap_or_else(|| self.warnings.join("; "))
+    }
+
     /// "ok" or "failed".
     pub fn status(&self) -> &'static str {
         if self.failure.is_some() {
@@ -136,7 +165,7 @@ impl BedOutcome {
     /// Every scalar metric by name (the `metrics` of the study model and `--json`).
     pub fn metrics(&self) -> Vec<(&'static str, Option<f64>)> {
         let finite = |x: f64| Some(x).filter(|x| x.is_finite());
-        vec![
+        let mut metrics = vec![
             ("max_piston_force_N", self.max_force),
             (
                 "piston_force_at_max_compression_N",
@@ -161,6 +190,90 @@ impl BedOutcome {
             ("steps", Some(self.steps as f64)),
             ("mean_time_step_s", finite(self.mean_time_step)),
             ("list_builds", Some(self.list_builds as f64)),
-        ]
+        ];
+        let fits = self
+            .damper_fits
+            .as_ref()
+            .map(damper_fit::DamperFits::values);
+        for (j, name) in damper_fit::METRICS.iter().enumerate() {
+            metrics.push((*name, fits.and_then(|f| finite(f[j]))));
+        }
+        for (k, names) in STRUCTURE_METRICS.iter().enumerate() {
+            let m = self.structure[k].as_ref();
+            let values = m.map(|m| {
+                [
+                    m.n5,
+                    m.n6,
+                    m.n7,
+                    m.psi6,
+                    m.hexagon_regularity_mean,
+                    m.hexagon_regularity_std,
+                    m.cells_counted as f64,
+                ]
+            });
+            for (j, name) in names.iter().enumerate() {
+                metrics.push((*name, values.and_then(|v| finite(v[j]))));
+            }
+        }
+        metrics
+    }
+}
+
+/// The moments at which a cycle analyses its structure: (metric suffix, snapshot label).
+pub const STRUCTURE_STAGES: [(&str, &str); 3] = [
+    ("start", "compression-start"),
+    ("max", "max-compression"),
+    ("end", "end"),
+];
+
+/// Structure metric names per stage: n5, n6, n7 (fractions of counted Voronoi cells with ≤ 5,
+/// 6, ≥ 7 sides), Ψ6, hexagon regularity mean and std, cells counted (analysis.md).
+pub const STRUCTURE_METRICS: [[&str; 7]; 3] = [
+    [
+        "n5_start",
+        "n6_start",
+        "n7_start",
+        "psi6_start",
+        "regularity_start",
+        "regularity_std_start",
+        "cells_start",
+    ],
+    [
+        "n5_max",
+        "n6_max",
+        "n7_max",
+        "psi6_max",
+        "regularity_max",
+        "regularity_std_max",
+        "cells_max",
+    ],
+    [
+        "n5_end",
+        "n6_end",
+        "n7_end",
+        "psi6_end",
+        "regularity_end",
+        "regularity_std_end",
+        "cells_end",
+    ],
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector2;
+
+    #[test]
+    fn a_failed_structure_analysis_is_a_warning_not_a_failure() {
+        let mut out = BedOutcome::default();
+        let collinear: Vec<_> = (0..5).map(|i| Vector2::new(f64::from(i), 0.0)).collect();
+        out.record_structure(1, &collinear);
+        assert!(out.structure[1].is_none());
+        assert_eq!(out.status(), "ok");
+        assert!(out.reason().contains("max-compression"), "{}", out.reason());
+        let metrics = out.metrics();
+        assert!(STRUCTURE_METRICS[1]
+            .iter()
+            .all(|name| metrics.iter().any(|(n, v)| n == name && v.is_none())));
     }
 }

@@ -270,6 +270,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
         p.piston_speed,
     );
     out.mean_distance_start = Some(mean_distance(&sim.state.position) / sim.mean_diameter);
+    out.record_structure(0, &sim.state.position);
     if p.snapshots {
         out.snapshots.push(sim.snapshot("compression-start"));
     }
@@ -289,6 +290,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     sim.advance(travel, false, &|t| (h0 - v * t).max(hf), &mut track)?;
     sim.record();
     out.force_at_max_compression = Some(sim.field.piston_force());
+    out.record_structure(1, &sim.state.position);
     if p.snapshots {
         out.snapshots.push(sim.snapshot("max-compression"));
     }
@@ -306,6 +308,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     out.cycle_work = Some(c.work);
     out.mean_distance_min = Some(c.min_mean_distance);
     out.mean_distance_end = Some(mean_distance(&sim.state.position) / sim.mean_diameter);
+    out.record_structure(2, &sim.state.position);
     if p.snapshots {
         out.snapshots.push(sim.snapshot("end"));
     }

@@ -97,26 +97,18 @@ const PARAMETERS: &[ParamSpec] = &[
     spec!("damper_record_interval", q(D::Time, "s")),
 ];
 
-const METRICS: &[&str] = &[
-    "max_piston_force_N",
-    "piston_force_at_max_compression_N",
-    "cycle_work_J",
-    "final_packing_fraction",
-    "max_packing_fraction",
-    "stroke_m",
-    "mean_distance_start_D",
-    "mean_distance_min_D",
-    "mean_distance_end_D",
-    "closest_pair_D",
-    "min_wall_distance_m",
-    "min_piston_distance_m",
-    "relaxation_speed_m_per_s",
-    "small_fraction",
-    "damper_rest_height_m",
-    "steps",
-    "mean_time_step_s",
-    "list_builds",
-];
+/// Every metric of [`BedOutcome::metrics`], in its order (the structure metrics per stage
+/// included), computed once.
+fn metric_names() -> &'static [&'static str] {
+    static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
+    NAMES.get_or_init(|| {
+        BedOutcome::default()
+            .metrics()
+            .into_iter()
+            .map(|(n, _)| n)
+            .collect()
+    })
+}
 
 const SERIES: &[(&str, &str)] = &[
     ("piston_height", "piston height (m)"),
@@ -203,7 +195,7 @@ impl StudyModel for BedModel {
     }
 
     fn metrics(&self) -> &'static [&'static str] {
-        METRICS
+        metric_names()
     }
 
     fn series_labels(&self) -> &'static [(&'static str, &'static str)] {
@@ -328,7 +320,7 @@ impl StudyModel for BedModel {
         let o = self.outcome(&p, seed, &|_| {});
         RunResult {
             status: o.status().to_string(),
-            reason: o.failure.clone().unwrap_or_default(),
+            reason: o.reason(),
             metrics: o
                 .metrics()
                 .into_iter()
