@@ -33,14 +33,16 @@ enum Command {
     Materials,
     /// One alignment run: settle a powder, switch on field and pressure, report τ.
     Align(align::AlignArgs),
-    /// One blast run: a charged cloud in E and B fields with drag (and interactions).
-    Blast(Box<blast::BlastArgs>),
     /// Find the field that aligns the powder fastest (the headline study).
     OptimizeField(align::OptimizeArgs),
     /// One compression cycle of a bed of repelling magnets under a piston.
     Bed(bed::BedArgs),
     /// A free-falling piston onto a bed of repelling magnets (magnetic granular damper).
     Damper(bed::BedArgs),
+    /// One blast run: a charged cloud in E and B fields with drag (and interactions).
+    Blast(Box<blast::BlastArgs>),
+    /// Structure, order and force analysis of a 2D snapshot (Parquet or CSV).
+    Analyze(analyze::AnalyzeArgs),
     /// Run a study file's grid × replicates in parallel; tables and provenance into --out.
     Sweep(study::SweepArgs),
     /// Optimize the free parameter(s) of a study file's [optimize] table.
@@ -49,10 +51,8 @@ enum Command {
     Collect(study::CollectArgs),
     /// Render the standard figures of a study result directory into DIR/plots/.
     Plot(study::PlotArgs),
-    /// Benchmarks: DEM particle-steps per second and peak memory.
+    /// Benchmarks of a model (align, bed, blast, analyze): throughput and peak memory.
     Bench(bench::BenchArgs),
-    /// Structure, order and force analysis of a 2D snapshot (Parquet or CSV).
-    Analyze(analyze::AnalyzeArgs),
 }
 
 /// Runs the CLI; returns the process exit code.
