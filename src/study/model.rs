@@ -17,6 +17,22 @@ pub enum Value {
 }
 
 impl Value {
+    /// The text of a name or choice ("" for a number).
+    pub fn as_text(&self) -> &str {
+        match self {
+            Value::Text(t) => t,
+            Value::Number(_) => "",
+        }
+    }
+
+    /// The number (NaN for a text; the parameter specs keep the two apart).
+    pub fn as_number(&self) -> f64 {
+        match self {
+            Value::Number(x) => *x,
+            Value::Text(_) => f64::NAN,
+        }
+    }
+
     /// Canonical text for run ids: exact (round-trip) for numbers.
     pub fn canonical(&self) -> String {
         match self {

@@ -169,20 +169,6 @@ impl AlignModel {
     }
 }
 
-fn text(value: &Value) -> &str {
-    match value {
-        Value::Text(t) => t,
-        Value::Number(_) => "",
-    }
-}
-
-fn num(value: &Value) -> f64 {
-    match value {
-        Value::Number(x) => *x,
-        Value::Text(_) => f64::NAN,
-    }
-}
-
 impl StudyModel for AlignModel {
     type Params = AlignSetup;
 
@@ -215,41 +201,41 @@ impl StudyModel for AlignModel {
     fn set(&self, setup: &mut AlignSetup, name: &str, value: &Value) -> Result<()> {
         let p = &mut setup.params;
         match name {
-            "material" => p.material = self.materials.get(text(value))?.clone(),
+            "material" => p.material = self.materials.get(value.as_text())?.clone(),
             "model" => {
-                setup.model = if text(value) == "ensemble" {
+                setup.model = if value.as_text() == "ensemble" {
                     ModelKind::Ensemble
                 } else {
                     ModelKind::Dem
                 }
             }
-            "field" => p.field = num(value),
-            "pressure" => p.pressure = num(value),
+            "field" => p.field = value.as_number(),
+            "pressure" => p.pressure = value.as_number(),
             "pressure_mode" => {
-                p.pressure_mode = if text(value) == "source-layer" {
+                p.pressure_mode = if value.as_text() == "source-layer" {
                     PressureMode::SourceLayer
                 } else {
                     PressureMode::ExposedLayer
                 }
             }
             "friction" => {
-                p.friction = num(value);
+                p.friction = value.as_number();
                 if !setup.wall_friction_set {
                     p.wall_friction = p.friction;
                 }
             }
             "wall_friction" => {
-                p.wall_friction = num(value);
+                p.wall_friction = value.as_number();
                 setup.wall_friction_set = true;
             }
-            "particles" => p.particles = num(value) as usize,
-            "diameter" => p.mean_diameter = num(value),
-            "diameter_sigma" => p.diameter_sigma = num(value),
-            "damping" => p.damping = num(value),
-            "target" => p.target = num(value),
-            "max_time" => p.max_time = num(value),
-            "rotation_step" => p.numerics.rotation_step = num(value),
-            "friction_regularization" => p.numerics.friction_regularization = num(value),
+            "particles" => p.particles = value.as_number() as usize,
+            "diameter" => p.mean_diameter = value.as_number(),
+            "diameter_sigma" => p.diameter_sigma = value.as_number(),
+            "damping" => p.damping = value.as_number(),
+            "target" => p.target = value.as_number(),
+            "max_time" => p.max_time = value.as_number(),
+            "rotation_step" => p.numerics.rotation_step = value.as_number(),
+            "friction_regularization" => p.numerics.friction_regularization = value.as_number(),
             other => {
                 return Err(self
                     .spec(other)

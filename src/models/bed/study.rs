@@ -123,20 +123,6 @@ const SERIES: &[(&str, &str)] = &[
     ("piston_displacement", "damper z − z_rest (m)"),
 ];
 
-fn text(value: &Value) -> &str {
-    match value {
-        Value::Text(t) => t,
-        Value::Number(_) => "",
-    }
-}
-
-fn num(value: &Value) -> f64 {
-    match value {
-        Value::Number(x) => *x,
-        Value::Text(_) => f64::NAN,
-    }
-}
-
 /// Reads a species file: `[[species]]` tables with `diameter` (with unit; bare: mm) and
 /// `fraction` (number fraction; normalized).
 pub fn load_species(path: &str) -> Result<Vec<Species>> {
@@ -163,9 +149,10 @@ pub fn load_species(path: &str) -> Result<Vec<Species>> {
         .iter()
         .map(|e| {
             Ok(Species {
-                diameter: num(&diameter
+                diameter: diameter
                     .parse(&e.diameter)
-                    .map_err(|err| Error::input(format!("species file '{path}': {err}")))?),
+                    .map_err(|err| Error::input(format!("species file '{path}': {err}")))?
+                    .as_number(),
                 fraction: e.fraction,
             })
         })
@@ -175,7 +162,7 @@ pub fn load_species(path: &str) -> Result<Vec<Species>> {
 fn choice<T: Copy>(value: &Value, options: &[(&str, T)]) -> T {
     options
         .iter()
-        .find(|(n, _)| *n == text(value))
+        .find(|(n, _)| *n == value.as_text())
         .map_or(options[0].1, |(_, t)| *t)
 }
 
@@ -212,7 +199,7 @@ impl StudyModel for BedModel {
     }
 
     fn set(&self, p: &mut BedParams, name: &str, value: &Value) -> Result<()> {
-        let x = num(value);
+        let x = value.as_number();
         match name {
             "preset" => {
                 p.preset = choice(
@@ -224,7 +211,7 @@ impl StudyModel for BedModel {
             "big_diameter" => p.big_diameter = Some(x),
             "mixing_ratio" => p.mixing_ratio = x,
             "aspect_ratio" => p.aspect_ratio = x,
-            "species_file" => p.species = Some(load_species(text(value))?),
+            "species_file" => p.species = Some(load_species(value.as_text())?),
             "width" => p.width = Some(x),
             "height" => p.height = Some(x),
             "gap" => p.gap = x,

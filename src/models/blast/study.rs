@@ -144,20 +144,6 @@ pub fn parse_direction(text: &str) -> std::result::Result<Vector3<f64>, String> 
     Ok(sign * v)
 }
 
-fn text(value: &Value) -> &str {
-    match value {
-        Value::Text(t) => t,
-        Value::Number(_) => "",
-    }
-}
-
-fn number(value: &Value) -> f64 {
-    match value {
-        Value::Number(x) => *x,
-        Value::Text(_) => f64::NAN,
-    }
-}
-
 impl BlastModel {
     /// The run as a study result.
     pub fn result(params: &BlastParams, outcome: &BlastOutcome) -> RunResult {
@@ -270,16 +256,18 @@ impl StudyModel for BlastModel {
     }
 
     fn set(&self, p: &mut BlastParams, name: &str, value: &Value) -> Result<()> {
-        let x = number(value);
+        let x = value.as_number();
         let bad = |e: String| Error::input(format!("{name}: {e}"));
         let (c, nf, s) = (&mut p.contact, &mut p.near_field, &mut p.step);
         match name {
             // B is entered as a field in tesla (μ0 H) and stored as B.
             "field" => p.field_strength = MU0 * x,
-            "field_direction" => p.field_direction = parse_direction(text(value)).map_err(bad)?,
+            "field_direction" => {
+                p.field_direction = parse_direction(value.as_text()).map_err(bad)?
+            }
             "electric_field" => p.electric_strength = x,
             "electric_direction" => {
-                p.electric_direction = match text(value).trim() {
+                p.electric_direction = match value.as_text().trim() {
                     "field" => None,
                     t => Some(parse_direction(t).map_err(bad)?),
                 }
@@ -294,7 +282,7 @@ impl StudyModel for BlastModel {
             "air_density" => p.air_density = x,
             "air_viscosity" => p.air_viscosity = x,
             "drag" => {
-                p.drag = match text(value) {
+                p.drag = match value.as_text() {
                     "quadratic" => DragLaw::Quadratic,
                     "stokes" => DragLaw::Stokes,
                     "none" => DragLaw::None,
@@ -304,9 +292,9 @@ impl StudyModel for BlastModel {
             "drag_coefficient" => p.drag_coefficient = x,
             "duration" => p.duration = x,
             "samples" => p.samples = x as usize,
-            "interactions" => p.interactions = Interactions::parse(text(value)).map_err(bad)?,
+            "interactions" => p.interactions = Interactions::parse(value.as_text()).map_err(bad)?,
             "integrator" => {
-                s.integrator = match text(value) {
+                s.integrator = match value.as_text() {
                     "boris" => Integrator::Boris,
                     "euler" => Integrator::Euler,
                     "trapezoidal" => Integrator::Trapezoidal,
