@@ -2,6 +2,9 @@
 //! analysis under translation, rotation and point order, degenerate input, and the
 //! `magopt analyze` command (output, JSON, errors with exit code 2).
 
+mod common;
+use common::magopt;
+
 use magopt::analysis::structure::{analyze, analyze_full};
 use magopt::analysis::voronoi::TessellationSettings;
 use magopt::Error;
@@ -9,7 +12,6 @@ use nalgebra::Vector2;
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use std::path::PathBuf;
-use std::process::Command;
 
 fn triangular(rows: usize, cols: usize, a: f64) -> Vec<Vector2<f64>> {
     let h = a * 3f64.sqrt() / 2.0;
@@ -235,18 +237,6 @@ proptest! {
 }
 
 // ---- the command ----
-
-fn magopt(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_magopt"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn data(name: &str) -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

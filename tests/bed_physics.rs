@@ -48,18 +48,23 @@ fn single(y0: f64) -> Single {
 }
 
 impl Single {
+    /// One Störmer–Verlet step of length dt with the piston held where it is.
+    fn step_by(&mut self, dt: f64) {
+        let piston = self.state.piston;
+        step(
+            &mut self.state,
+            &self.particles,
+            &mut self.field,
+            &self.kick,
+            dt,
+            piston,
+        );
+    }
+
     fn run_fixed(&mut self, dt: f64, t_end: f64) {
         let n = (t_end / dt).round() as usize;
         for _ in 0..n {
-            let piston = self.state.piston;
-            step(
-                &mut self.state,
-                &self.particles,
-                &mut self.field,
-                &self.kick,
-                dt,
-                piston,
-            );
+            self.step_by(dt);
         }
     }
 
@@ -68,15 +73,7 @@ impl Single {
         while self.state.time < t_end {
             let dt = time_step(&self.field, &self.particles, &self.kick, factor, 1e-3)
                 .min(t_end - self.state.time);
-            let piston = self.state.piston;
-            step(
-                &mut self.state,
-                &self.particles,
-                &mut self.field,
-                &self.kick,
-                dt,
-                piston,
-            );
+            self.step_by(dt);
             steps += 1;
         }
         steps

@@ -2,7 +2,8 @@
 //! H_f, √a size scaling), a full small cycle (hysteresis with dry friction, none without),
 //! snapshots in the agreed format, the damper, bad input and study files.
 
-use std::process::Command;
+mod common;
+use common::magopt;
 
 use magopt::models::bed::damper::run_damper;
 use magopt::models::bed::params::{BedParams, Friction, Preset};
@@ -155,18 +156,6 @@ fn damper_rests_on_the_bed_and_a_heavy_piston_crushes_it() {
         "{:?}",
         heavy.failure
     );
-}
-
-fn magopt(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_magopt"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]

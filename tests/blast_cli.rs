@@ -1,19 +1,8 @@
 //! `magopt blast` from the outside: JSON output, output files, and one-line errors with exit
 //! code 2 on bad input.
 
-use std::process::Command;
-
-fn magopt(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_magopt"))
-        .args(args)
-        .output()
-        .expect("runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::magopt;
 
 #[test]
 fn json_reports_the_envelope() {

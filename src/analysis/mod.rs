@@ -5,9 +5,8 @@
 //! Entry points for a model:
 //! - [`structure::analyze`]`(&[nalgebra::Vector2<f64>]) -> Result<StructureMetrics>` on the
 //!   particle centres (any length unit): n5, n6, n7, side histogram, Ψ6 (plain and
-//!   side-length weighted), hexagon regularity mean/std, cells counted by the border rule;
-//!   [`structure::StructureMetrics::named_values`] lists them as (name, value) for a study
-//!   model's metrics. Degenerate centres (< 3, collinear, duplicates, NaN) are an
+//!   side-length weighted), hexagon regularity mean/std, cells counted by the border rule
+//!   (the bed model records them per cycle stage). Degenerate centres (< 3, collinear, duplicates, NaN) are an
 //!   [`crate::Error::Input`], never a panic.
 //! - [`structure::analyze_full`] adds the cells and per-particle ψ6;
 //!   [`report::analyze_snapshot`] on a [`snapshot::Snapshot`] adds coordination, force

@@ -47,25 +47,6 @@ pub struct StructureMetrics {
     pub hexagons: usize,
 }
 
-impl StructureMetrics {
-    /// The scalar metrics as (name, value) pairs, names as in the JSON output: `n5`, `n6`,
-    /// `n7`, `psi6`, `psi6_weighted`, `hexagon_regularity_mean`, `hexagon_regularity_std`,
-    /// `hexagons`, `cells_counted` (for a study model's metrics).
-    pub fn named_values(&self) -> Vec<(&'static str, f64)> {
-        vec![
-            ("n5", self.n5),
-            ("n6", self.n6),
-            ("n7", self.n7),
-            ("psi6", self.psi6),
-            ("psi6_weighted", self.psi6_weighted),
-            ("hexagon_regularity_mean", self.hexagon_regularity_mean),
-            ("hexagon_regularity_std", self.hexagon_regularity_std),
-            ("hexagons", self.hexagons as f64),
-            ("cells_counted", self.cells_counted as f64),
-        ]
-    }
-}
-
 /// Per-particle order data.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParticleOrder {

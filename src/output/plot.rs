@@ -153,15 +153,7 @@ pub fn render_png_sized(path: &Path, fig: &Figure, width: u32, height: u32) -> R
             )));
         }
     }
-    ensure_font()?;
-    let dir = parent_dir(path);
-    if !dir.is_dir() {
-        let e = std::io::Error::new(
-            std::io::ErrorKind::NotFound,
-            format!("directory '{}' does not exist", dir.display()),
-        );
-        return Err(Error::io(path, e));
-    }
+    ready_to_render(path)?;
 
     let tmp = temp_path_for(path, ".png");
     let drawn = {
@@ -178,8 +170,23 @@ pub fn render_png_sized(path: &Path, fig: &Figure, width: u32, height: u32) -> R
     }
 }
 
+/// Checks what every PNG writer needs before drawing: the bundled font is registered and the
+/// target's directory exists (an [`Error::Io`] naming the path otherwise).
+pub(crate) fn ready_to_render(path: &Path) -> Result<()> {
+    ensure_font()?;
+    let dir = parent_dir(path);
+    if !dir.is_dir() {
+        let e = std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!("directory '{}' does not exist", dir.display()),
+        );
+        return Err(Error::io(path, e));
+    }
+    Ok(())
+}
+
 /// Registers the bundled font exactly once per process.
-pub(crate) fn ensure_font() -> Result<()> {
+fn ensure_font() -> Result<()> {
     static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {

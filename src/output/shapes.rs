@@ -6,8 +6,8 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::atomic::{commit_temp, parent_dir, temp_path_for};
-use super::plot::ensure_font;
+use super::atomic::{commit_temp, temp_path_for};
+use super::plot::ready_to_render;
 use crate::{Error, Result};
 
 /// An RGB colour.
@@ -113,15 +113,7 @@ pub fn render_canvas_png(path: &Path, canvas: &Canvas, width: u32) -> Result<()>
             "image width {width} px is outside 400..=8000"
         )));
     }
-    ensure_font()?;
-    let dir = parent_dir(path);
-    if !dir.is_dir() {
-        let e = std::io::Error::new(
-            std::io::ErrorKind::NotFound,
-            format!("directory '{}' does not exist", dir.display()),
-        );
-        return Err(Error::io(path, e));
-    }
+    ready_to_render(path)?;
     let (mut xr, mut yr) = extent(&canvas.shapes);
     // Plot area: width minus panel and label areas; margins as in `draw` below.
     let plot_w = f64::from(width - PANEL - 90 - 20);
