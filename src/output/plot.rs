@@ -154,18 +154,33 @@ pub fn render_png_sized(path: &Path, fig: &Figure, width: u32, height: u32) -> R
         }
     }
     ready_to_render(path)?;
+    write_png_atomic(path, (width, height), |root| {
+        draw_figure(root, fig, (width, height))
+    })
+}
 
+/// Draws a `size` bitmap into a temporary file next to `path` and renames it into place, so no
+/// half-written PNG ever carries the final name; a drawing error removes the temporary file.
+pub(crate) fn write_png_atomic(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(
+        &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    ) -> std::result::Result<(), String>,
+) -> Result<()> {
     let tmp = temp_path_for(path, ".png");
     let drawn = {
-        let root = BitMapBackend::new(&tmp, (width, height)).into_drawing_area();
-        draw_figure(&root, fig, (width, height))
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
+        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        draw(&root).and_then(|()| root.present().map_err(|e| e.to_string()))
     };
     match drawn {
         Ok(()) => commit_temp(&tmp, path),
         Err(msg) => {
             let _ = std::fs::remove_file(&tmp);
-            Err(fail(msg))
+            Err(Error::Output(format!(
+                "cannot render '{}': {msg}",
+                path.display()
+            )))
         }
     }
 }

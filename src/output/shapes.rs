@@ -6,8 +6,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::atomic::{commit_temp, temp_path_for};
-use super::plot::ready_to_render;
+use super::plot::{ready_to_render, write_png_atomic};
 use crate::{Error, Result};
 
 /// An RGB colour.
@@ -129,19 +128,9 @@ pub fn render_canvas_png(path: &Path, canvas: &Canvas, width: u32) -> Result<()>
     xr = grow(xr, plot_w);
     yr = grow(yr, plot_h);
     let height = (plot_h + 60.0 + 60.0 + 20.0) as u32;
-    let tmp = temp_path_for(path, ".png");
-    let drawn = {
-        let root = BitMapBackend::new(&tmp, (width, height)).into_drawing_area();
-        draw(&root, canvas, xr, yr, units_per_px)
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
-    };
-    match drawn {
-        Ok(()) => commit_temp(&tmp, path),
-        Err(msg) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(fail(msg))
-        }
-    }
+    write_png_atomic(path, (width, height), |root| {
+        draw(root, canvas, xr, yr, units_per_px)
+    })
 }
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
