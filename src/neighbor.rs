@@ -6,7 +6,14 @@
 //! A fixed cut-off r_c with list radius r_v (the usual MD Verlet list) is the special case
 //! R_i = r_c/2, skin = r_v − r_c; a plain cell list is a list rebuilt every step with skin 0.
 
+use std::ops::Range;
+
 use nalgebra::SVector;
+use rayon::prelude::*;
+
+/// From this many points on, a build searches in parallel blocks of `BUILD_BLOCK` points.
+const PARALLEL_BUILD_FROM: usize = 4096;
+const BUILD_BLOCK: usize = 1024;
 
 /// Full (both directions) Verlet neighbour list in compressed-row form.
 #[derive(Debug, Clone)]
@@ -71,28 +78,46 @@ impl<const D: usize> NeighborList<D> {
             .any(|(p, r)| (p - r).norm_squared() > limit)
     }
 
-    /// Builds the list from a cell grid of cell size 2 R_max + skin.
+    /// Builds the list from a cell grid of cell size 2 R_max + skin; large sets are searched
+    /// in blocks on the rayon pool, concatenated in index order (the same list either way).
     pub fn build(&mut self, positions: &[SVector<f64, D>], radii: &[f64]) {
         let n = positions.len();
         let r_max = radii.iter().cloned().fold(0.0, f64::max);
         let grid = CellGrid::new(positions, 2.0 * r_max + self.skin);
+        let skin = self.skin;
+        let block = |range: Range<usize>| {
+            let (mut found, mut counts) = (Vec::new(), Vec::with_capacity(range.len()));
+            for i in range {
+                let start = found.len();
+                grid.for_each_near(&positions[i], |j| {
+                    let cutoff = radii[i] + radii[j] + skin;
+                    if j != i && (positions[j] - positions[i]).norm_squared() < cutoff * cutoff {
+                        found.push(j as u32);
+                    }
+                });
+                found[start..].sort_unstable();
+                counts.push(found.len() - start);
+            }
+            (found, counts)
+        };
+        let blocks: Vec<(Vec<u32>, Vec<usize>)> = if n >= PARALLEL_BUILD_FROM {
+            (0..n.div_ceil(BUILD_BLOCK))
+                .into_par_iter()
+                .map(|b| block(b * BUILD_BLOCK..((b + 1) * BUILD_BLOCK).min(n)))
+                .collect()
+        } else {
+            vec![block(0..n)]
+        };
         self.offsets.clear();
         self.neighbors.clear();
         self.offsets.push(0);
-        let mut found = Vec::new();
-        for i in 0..n {
-            found.clear();
-            grid.for_each_near(&positions[i], |j| {
-                if j != i {
-                    let cutoff = radii[i] + radii[j] + self.skin;
-                    if (positions[j] - positions[i]).norm_squared() < cutoff * cutoff {
-                        found.push(j as u32);
-                    }
-                }
-            });
-            found.sort_unstable();
+        for (found, counts) in blocks {
+            let mut end = self.neighbors.len();
+            for count in counts {
+                end += count;
+                self.offsets.push(end);
+            }
             self.neighbors.extend_from_slice(&found);
-            self.offsets.push(self.neighbors.len());
         }
         self.reference.clear();
         self.reference.extend_from_slice(positions);
@@ -231,6 +256,28 @@ mod tests {
                 .collect();
             assert_eq!(list.of(i), &brute[..], "particle {i}");
         }
+    }
+
+    #[test]
+    fn parallel_blocks_give_the_all_pairs_list() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let n = PARALLEL_BUILD_FROM + BUILD_BLOCK / 2;
+        let positions: Vec<Vector2<f64>> = (0..n)
+            .map(|_| Vector2::new(rng.random::<f64>() * 60.0, rng.random::<f64>() * 40.0))
+            .collect();
+        let radii = vec![0.5; n];
+        let mut list = NeighborList::<2>::new(0.2);
+        list.build(&positions, &radii);
+        let mut entries = 0;
+        for i in 0..n {
+            let brute: Vec<u32> = (0..n)
+                .filter(|&j| j != i && (positions[j] - positions[i]).norm() < 1.2)
+                .map(|j| j as u32)
+                .collect();
+            assert_eq!(list.of(i), &brute[..], "particle {i}");
+            entries += brute.len();
+        }
+        assert_eq!(list.len(), entries);
     }
 
     #[test]

@@ -171,6 +171,15 @@ fn bad_input_is_one_line_and_exit_code_2() {
         (&["--big-diameter", "40mm"], "particles"),
         (&["--velocity", "5 kOe"], "--velocity"),
         (&["--species", "/nonexistent.toml"], "--species"),
+        (&["--far-field-interval", "0"], "--far-field-interval"),
+        (
+            &["--far-field-interval", "4", "--neighbors", "exact"],
+            "neighbors = verlet",
+        ),
+        (
+            &["--far-field-interval", "4", "--near-cutoff", "8"],
+            "near_cutoff",
+        ),
     ];
     for (args, needle) in cases {
         let mut full = vec!["bed"];

@@ -56,9 +56,16 @@ pub struct BedArgs {
     /// Cut-off r_c in units of D1 [default: 7.13].
     #[arg(long, allow_hyphen_values = true)]
     cutoff: Option<String>,
-    /// Verlet list radius r_v in units of D1 [default: 11.26].
+    /// Verlet list radius r_v in units of D1 (changes the speed, never the result) [default: 8; the source used 11.26].
     #[arg(long, allow_hyphen_values = true)]
     list_radius: Option<String>,
+    /// Multiple time stepping: sum the pairs beyond --near-cutoff every K steps and hold them
+    /// in between (verlet only) [default: 1, every pair every step].
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
+    far_field_interval: Option<String>,
+    /// Near cut-off r_s in units of D1 of the multiple time stepping [default: 3].
+    #[arg(long, allow_hyphen_values = true)]
+    near_cutoff: Option<String>,
     /// Packing fraction at maximum compression (sets H_f) [default: 0.34].
     #[arg(long, allow_hyphen_values = true)]
     packing_fraction: Option<String>,
@@ -80,7 +87,7 @@ pub struct BedArgs {
     /// Rest after the expansion (s; bare number: s) [default: 0 s].
     #[arg(long, allow_hyphen_values = true)]
     final_rest: Option<String>,
-    /// Interval of the recorded series (s, ms; bare number: s) [default: 0.05 s].
+    /// Interval of the recorded series (s, ms; bare number: s) [default: 0.05 s, × √(N/N_preset) above the preset's N].
     #[arg(long, allow_hyphen_values = true)]
     record_interval: Option<String>,
     /// Damper: piston mass (g, kg, mg; bare number: g) [default: 200 g].
@@ -117,6 +124,8 @@ impl BedArgs {
             ("neighbors", &self.neighbors),
             ("cutoff", &self.cutoff),
             ("list_radius", &self.list_radius),
+            ("far_field_interval", &self.far_field_interval),
+            ("near_cutoff", &self.near_cutoff),
             ("max_packing_fraction", &self.packing_fraction),
             ("start_packing_fraction", &self.start_packing_fraction),
             ("wall_law", &self.wall_law),
@@ -188,6 +197,8 @@ const OPTION_FIELDS: &[&str] = &[
     "big_diameter",
     "cutoff",
     "list_radius",
+    "far_field_interval",
+    "near_cutoff",
     "max_packing_fraction",
     "start_packing_fraction",
     "viscous_time",

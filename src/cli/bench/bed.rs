@@ -1,4 +1,5 @@
-//! `magopt bench bed`: one full compression cycle per (N, neighbour method, threads).
+//! `magopt bench bed`: one full compression cycle per (N, neighbour method, far-field interval,
+//! threads).
 
 use serde_json::json;
 
@@ -7,7 +8,7 @@ use crate::models::bed::study::BedModel;
 use crate::study::model::StudyModel;
 use crate::Result;
 
-/// `magopt bench bed`: one full cycle per (N, neighbour method, threads).
+/// `magopt bench bed`: one full cycle per (N, neighbour method, far-field interval, threads).
 pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
     let model = BedModel::cycle();
     println!(
@@ -15,9 +16,10 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
         args.velocity
     );
     println!(
-        "{:>7} {:>9} {:>7} {:>9} {:>10} {:>10} {:>16} {:>11} {:>13}",
+        "{:>7} {:>9} {:>3} {:>7} {:>9} {:>10} {:>10} {:>16} {:>11} {:>13}",
         "N",
         "neighbors",
+        "K",
         "threads",
         "steps",
         "wall (s)",
@@ -29,50 +31,69 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
     let mut rows = Vec::new();
     for n in counts("particles", args.particles.as_deref(), &[368])? {
         for method in &args.neighbors {
-            for t_text in &args.threads {
-                let mut params = model.defaults();
-                for (name, value) in [
-                    ("particles", &n.to_string()),
-                    ("neighbors", method),
-                    ("piston_speed", &args.velocity),
-                ] {
-                    let v = model
-                        .spec(name)?
-                        .parse(&toml::Value::String(value.clone()))?;
-                    model.set(&mut params, name, &v)?;
+            for k in &args.far_field_interval {
+                if method != "verlet" && k != "1" {
+                    continue;
                 }
-                params.snapshots = false;
-                model.validate(&params)?;
-                let threads = count("threads", t_text)?;
-                reset_peak_rss();
-                let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
-                let n = params.particle_count();
-                println!(
-                    "{n:>7} {method:>9} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>11.3} {:>13.1}{}",
-                    o.steps,
-                    o.wall_time_s,
-                    1e6 * o.wall_time_s / o.steps as f64,
-                    (o.steps * n) as f64 / o.wall_time_s,
-                    o.max_force.unwrap_or(f64::NAN),
-                    peak_rss_mb(),
-                    o.failure
-                        .as_ref()
-                        .map(|r| format!("  FAILED: {r}"))
-                        .unwrap_or_default()
-                );
-                rows.push(json!({
-                    "particles": n,
-                    "neighbors": method,
-                    "threads": threads,
-                    "steps": o.steps,
-                    "wall_s": o.wall_time_s,
-                    "particle_steps_per_s": (o.steps * n) as f64 / o.wall_time_s,
-                    "max_piston_force_N": o.max_force,
-                    "failure": o.failure,
-                    "peak_rss_mb": peak_rss_mb(),
-                }));
+                for t_text in &args.threads {
+                    let mut settings = vec![
+                        ("particles", n.to_string()),
+                        ("neighbors", method.clone()),
+                        ("piston_speed", args.velocity.clone()),
+                        ("far_field_interval", k.clone()),
+                    ];
+                    if let Some(rv) = &args.list_radius {
+                        settings.push(("list_radius", rv.clone()));
+                    }
+                    rows.push(row(&model, &settings, count("threads", t_text)?)?);
+                }
             }
         }
     }
     Ok(rows)
+}
+
+/// One cycle with these settings on a pool of `threads`: printed, and returned as JSON.
+fn row(model: &BedModel, settings: &[(&str, String)], threads: usize) -> Result<serde_json::Value> {
+    let mut params = model.defaults();
+    for (name, value) in settings {
+        let v = model
+            .spec(name)?
+            .parse(&toml::Value::String(value.clone()))?;
+        model.set(&mut params, name, &v)?;
+    }
+    params.snapshots = false;
+    model.validate(&params)?;
+    reset_peak_rss();
+    let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
+    let n = params.particle_count();
+    let (method, k) = (&params.neighbors, params.far_field_interval);
+    println!(
+        "{n:>7} {:>9} {k:>3} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>11.3} {:>13.1}{}",
+        format!("{method:?}").to_lowercase(),
+        o.steps,
+        o.wall_time_s,
+        1e6 * o.wall_time_s / o.steps as f64,
+        (o.steps * n) as f64 / o.wall_time_s,
+        o.max_force.unwrap_or(f64::NAN),
+        peak_rss_mb(),
+        o.failure
+            .as_ref()
+            .map(|r| format!("  FAILED: {r}"))
+            .unwrap_or_default()
+    );
+    Ok(json!({
+        "particles": n,
+        "neighbors": format!("{method:?}").to_lowercase(),
+        "far_field_interval": k,
+        "list_radius_D": params.list_radius,
+        "threads": threads,
+        "steps": o.steps,
+        "wall_s": o.wall_time_s,
+        "particle_steps_per_s": (o.steps * n) as f64 / o.wall_time_s,
+        "max_piston_force_N": o.max_force,
+        "cycle_work_J": o.cycle_work,
+        "failure": o.failure,
+        "peak_rss_mb": peak_rss_mb(),
+    }))
 }

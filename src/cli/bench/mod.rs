@@ -72,6 +72,13 @@ pub struct BenchArgs {
     /// bed: piston speed (bare number: mm/s); faster means fewer steps per cycle.
     #[arg(long, default_value = "5.63mm/s")]
     velocity: String,
+    /// bed: far-field intervals K of the multiple time stepping, comma-separated (1 = every
+    /// pair every step; K > 1 applies to verlet rows only).
+    #[arg(long, default_value = "1", value_delimiter = ',')]
+    far_field_interval: Vec<String>,
+    /// bed: Verlet list radius r_v in units of D1 [default: the model's].
+    #[arg(long)]
+    list_radius: Option<String>,
     /// blast: simulated time of the interacting example (s, ms; bare number: s).
     #[arg(long, default_value = "1s")]
     interacting_duration: String,

@@ -16,11 +16,16 @@
 //! recomputed every step from the state, so the sequence of steps is deterministic.
 
 use nalgebra::Vector2;
+use rayon::prelude::*;
 
-use super::forces::ForceField;
+use super::forces::{ForceField, ParticleForce};
 use super::params::BedParams;
 pub use super::params::FrictionScheme;
 use super::state::{Particles, State};
+
+/// From this many particles on, kicks and drifts run on the rayon pool (below it the pool's
+/// overhead exceeds the work).
+const PARALLEL_UPDATE_FROM: usize = 4096;
 
 /// Friction constants of the kicks.
 #[derive(Debug, Clone, Copy)]
@@ -108,8 +113,19 @@ pub fn step(
     piston_after: f64,
 ) {
     half_kick(state, particles, field, kick, 0.5 * dt);
-    for (x, v) in state.position.iter_mut().zip(&state.velocity) {
-        *x += v * dt;
+    let drift = |(x, v): (&mut Vector2<f64>, &Vector2<f64>)| *x += v * dt;
+    if state.position.len() >= PARALLEL_UPDATE_FROM {
+        state
+            .position
+            .par_iter_mut()
+            .zip(&state.velocity)
+            .for_each(drift);
+    } else {
+        state
+            .position
+            .iter_mut()
+            .zip(&state.velocity)
+            .for_each(drift);
     }
     state.piston = piston_after;
     state.time += dt;
@@ -125,9 +141,20 @@ pub fn half_kick(
     kick: &Kick,
     h: f64,
 ) {
-    for (i, v) in state.velocity.iter_mut().enumerate() {
-        let o = &field.out[i];
-        *v = kick.velocity(*v, o.force, o.normal, particles.mass[i], h);
+    let one = |(v, (o, m)): (&mut Vector2<f64>, (&ParticleForce, &f64))| {
+        *v = kick.velocity(*v, o.force, o.normal, *m, h)
+    };
+    let velocity = &mut state.velocity;
+    if velocity.len() >= PARALLEL_UPDATE_FROM {
+        velocity
+            .par_iter_mut()
+            .zip(field.out.par_iter().zip(&particles.mass))
+            .for_each(one);
+    } else {
+        velocity
+            .iter_mut()
+            .zip(field.out.iter().zip(&particles.mass))
+            .for_each(one);
     }
 }
 

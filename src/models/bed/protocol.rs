@@ -112,7 +112,7 @@ impl<'a> Simulation<'a> {
         self.check()?;
         if self.state.time >= self.next_record {
             self.record();
-            self.next_record = self.state.time + self.params.record_interval;
+            self.next_record = self.state.time + self.params.record_interval();
         }
         Ok(())
     }

@@ -1,7 +1,7 @@
 //! Validation of [`BedParams`]: every message names the field, its value and what is allowed
 //! (bad input is exit code 2 at the command line).
 
-use super::params::BedParams;
+use super::params::{BedParams, Neighbors};
 use super::state::{grid_spacing, Geometry};
 use crate::{Error, Result};
 
@@ -19,7 +19,7 @@ impl BedParams {
             ("piston_decay_time", self.piston_decay_time),
             ("time_step_factor", self.time_step_factor),
             ("max_time_step", self.max_time_step),
-            ("record_interval", self.record_interval),
+            ("record_interval", self.record_interval()),
             ("piston_mass", self.piston_mass),
             ("damper_time", self.damper_time),
             ("damper_record_interval", self.damper_record_interval),
@@ -69,6 +69,23 @@ impl BedParams {
                 "cutoff {} and list_radius {}: need 0 < r_c ≤ r_v (in D_1)",
                 self.cutoff, self.list_radius
             )));
+        }
+        if self.far_field_interval == 0 {
+            return Err(bad("far_field_interval", 0.0, "need a whole number ≥ 1"));
+        }
+        if self.far_field_interval > 1 {
+            if self.neighbors != Neighbors::Verlet {
+                return Err(Error::input(format!(
+                    "far_field_interval {}: multiple time stepping needs neighbors = verlet",
+                    self.far_field_interval
+                )));
+            }
+            if !(self.near_cutoff > 0.0 && self.near_cutoff < self.cutoff) {
+                return Err(Error::input(format!(
+                    "near_cutoff {}: need 0 < r_s < r_c = {} (in D_1)",
+                    self.near_cutoff, self.cutoff
+                )));
+            }
         }
         self.validate_species()?;
         self.validate_packing()
