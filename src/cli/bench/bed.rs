@@ -42,8 +42,13 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                         ("piston_speed", args.velocity.clone()),
                         ("far_field_interval", k.clone()),
                     ];
-                    if let Some(rv) = &args.list_radius {
-                        settings.push(("list_radius", rv.clone()));
+                    for (name, value) in [
+                        ("list_radius", &args.list_radius),
+                        ("time_step_factor", &args.time_step_factor),
+                    ] {
+                        if let Some(v) = value {
+                            settings.push((name, v.clone()));
+                        }
                     }
                     rows.push(row(&model, &settings, count("threads", t_text)?)?);
                 }
@@ -87,6 +92,7 @@ fn row(model: &BedModel, settings: &[(&str, String)], threads: usize) -> Result<
         "neighbors": format!("{method:?}").to_lowercase(),
         "far_field_interval": k,
         "list_radius_D": params.list_radius,
+        "time_step_factor": params.time_step_factor,
         "threads": threads,
         "steps": o.steps,
         "wall_s": o.wall_time_s,

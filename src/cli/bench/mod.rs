@@ -79,6 +79,9 @@ pub struct BenchArgs {
     /// bed: Verlet list radius r_v in units of D1 [default: the model's].
     #[arg(long)]
     list_radius: Option<String>,
+    /// bed: time-step factor (Δt = factor/ω_max) [default: the model's].
+    #[arg(long)]
+    time_step_factor: Option<String>,
     /// blast: simulated time of the interacting example (s, ms; bare number: s).
     #[arg(long, default_value = "1s")]
     interacting_duration: String,

@@ -10,7 +10,7 @@
 use std::time::Instant;
 
 use super::damper_fit::{fit_damper, FIT_SAMPLES};
-use super::integrator::{half_kick, Kick};
+use super::integrator::{half_kick, kick_and_drift, Kick};
 use super::protocol::Simulation;
 use super::{BedOutcome, BedParams};
 
@@ -107,10 +107,14 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
             .min(sim.params.time_step_factor / omega2.sqrt())
             .min(end - sim.state.time);
         piston.kick(sim.field.piston_force(), 0.5 * dt);
-        half_kick(&mut sim.state, &sim.particles, &sim.field, &kick, 0.5 * dt);
-        for (x, v) in sim.state.position.iter_mut().zip(&sim.state.velocity) {
-            *x += v * dt;
-        }
+        kick_and_drift(
+            &mut sim.state,
+            &sim.particles,
+            &sim.field,
+            &kick,
+            0.5 * dt,
+            dt,
+        );
         sim.state.piston += piston.velocity * dt;
         sim.state.time += dt;
         sim.field.evaluate(&sim.particles, &sim.state);

@@ -44,7 +44,7 @@ enum Pairs {
         radii: Vec<f64>,
         cutoff2: f64,
         every_step: bool,
-        split: Option<Split>,
+        split: Option<Box<Split>>,
     },
 }
 
@@ -104,13 +104,15 @@ impl ForceField {
                     radii: vec![0.5 * rc; n],
                     cutoff2: rc * rc,
                     every_step,
-                    split: (params.far_field_interval > 1).then(|| Split {
-                        interval: params.far_field_interval,
-                        near: NeighborList::new(rv - rc),
-                        near_radii: vec![0.5 * rs; n],
-                        near2: rs * rs,
-                        far: Vec::new(),
-                        due: 0,
+                    split: (params.far_field_interval > 1).then(|| {
+                        Box::new(Split {
+                            interval: params.far_field_interval,
+                            near: NeighborList::new(rv - rc),
+                            near_radii: vec![0.5 * rs; n],
+                            near2: rs * rs,
+                            far: Vec::new(),
+                            due: 0,
+                        })
                     }),
                 }
             }
@@ -145,47 +147,59 @@ impl ForceField {
     /// Evaluates every particle's forces at the state into `self.out`.
     pub fn evaluate(&mut self, particles: &Particles, state: &State) {
         let (position, n) = (&state.position, state.position.len());
-        let mut refresh_far = false;
-        if let Pairs::Cut {
-            list,
-            radii,
-            every_step,
-            split,
-            ..
-        } = &mut self.pairs
-        {
-            match split {
-                Some(split) => {
-                    refresh_far = split.due == 0;
-                    split.due = if refresh_far {
-                        split.interval
-                    } else {
-                        split.due
-                    } - 1;
-                    split.near.update(position, &split.near_radii);
-                    if refresh_far {
-                        list.update(position, radii);
-                    }
-                }
-                None if *every_step => list.build(position, radii),
-                None => {
-                    list.update(position, radii);
-                }
-            }
-        }
-        if refresh_far {
-            let mut far = Vec::new();
+        if self.update_lists(position) {
+            // the held far sums are refilled in place (no allocation after the first)
+            let mut far = self
+                .split_mut()
+                .map(|s| std::mem::take(&mut s.far))
+                .unwrap_or_default();
             per_particle(&mut far, n, |i| self.far_sums(i, position));
-            if let Pairs::Cut {
-                split: Some(split), ..
-            } = &mut self.pairs
-            {
+            if let Some(split) = self.split_mut() {
                 split.far = far;
             }
         }
         let mut out = std::mem::take(&mut self.out);
         per_particle(&mut out, n, |i| self.particle(i, particles, state));
         self.out = out;
+    }
+
+    fn split_mut(&mut self) -> Option<&mut Split> {
+        match &mut self.pairs {
+            Pairs::Cut {
+                split: Some(split), ..
+            } => Some(split),
+            _ => None,
+        }
+    }
+
+    /// Brings the neighbour lists up to date for this step; returns whether the far part of a
+    /// split evaluation is due (its list is then updated too).
+    fn update_lists(&mut self, position: &[Vector2<f64>]) -> bool {
+        let Pairs::Cut {
+            list,
+            radii,
+            every_step,
+            split,
+            ..
+        } = &mut self.pairs
+        else {
+            return false;
+        };
+        let Some(split) = split else {
+            if *every_step {
+                list.build(position, radii);
+            } else {
+                list.update(position, radii);
+            }
+            return false;
+        };
+        let due = split.due == 0;
+        split.due = if due { split.interval } else { split.due } - 1;
+        split.near.update(position, &split.near_radii);
+        if due {
+            list.update(position, radii);
+        }
+        due
     }
 
     /// Total force on the piston (upwards), summed in index order, N.

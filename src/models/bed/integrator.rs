@@ -112,25 +112,44 @@ pub fn step(
     dt: f64,
     piston_after: f64,
 ) {
-    half_kick(state, particles, field, kick, 0.5 * dt);
-    let drift = |(x, v): (&mut Vector2<f64>, &Vector2<f64>)| *x += v * dt;
-    if state.position.len() >= PARALLEL_UPDATE_FROM {
-        state
-            .position
-            .par_iter_mut()
-            .zip(&state.velocity)
-            .for_each(drift);
-    } else {
-        state
-            .position
-            .iter_mut()
-            .zip(&state.velocity)
-            .for_each(drift);
-    }
+    kick_and_drift(state, particles, field, kick, 0.5 * dt, dt);
     state.piston = piston_after;
     state.time += dt;
     field.evaluate(particles, state);
     half_kick(state, particles, field, kick, 0.5 * dt);
+}
+
+/// A half kick of length h, then a drift of dt, of every particle in one pass.
+pub fn kick_and_drift(
+    state: &mut State,
+    particles: &Particles,
+    field: &ForceField,
+    kick: &Kick,
+    h: f64,
+    dt: f64,
+) {
+    type Item<'a> = (
+        (&'a mut Vector2<f64>, &'a mut Vector2<f64>),
+        (&'a ParticleForce, &'a f64),
+    );
+    let one = |((x, v), (o, m)): Item| {
+        *v = kick.velocity(*v, o.force, o.normal, *m, h);
+        *x += *v * dt;
+    };
+    let (position, velocity) = (&mut state.position, &mut state.velocity);
+    if position.len() >= PARALLEL_UPDATE_FROM {
+        position
+            .par_iter_mut()
+            .zip(velocity.par_iter_mut())
+            .zip(field.out.par_iter().zip(&particles.mass))
+            .for_each(one);
+    } else {
+        position
+            .iter_mut()
+            .zip(velocity.iter_mut())
+            .zip(field.out.iter().zip(&particles.mass))
+            .for_each(one);
+    }
 }
 
 /// One half kick of every particle (friction included).
