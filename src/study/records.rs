@@ -84,11 +84,13 @@ pub struct Columns {
     pub metrics: Vec<String>,
 }
 
-fn axis_column(spec: &super::model::ParamSpec, records: &[RunRecord], k: usize) -> ColumnData {
-    let shown: Vec<Value> = records
-        .iter()
-        .map(|r| spec.display(&r.run.values[k]))
-        .collect();
+/// The k-th swept value of each run, as numbers where all are numbers, else as text.
+fn axis_column<'a>(
+    spec: &super::model::ParamSpec,
+    runs: impl Iterator<Item = &'a RunSpec>,
+    k: usize,
+) -> ColumnData {
+    let shown: Vec<Value> = runs.map(|run| spec.display(&run.values[k])).collect();
     if shown.iter().all(|v| matches!(v, Value::Number(_))) {
         C::F64(
             shown
@@ -139,7 +141,7 @@ pub fn runs_table(model: &str, columns: &Columns, records: &[RunRecord]) -> Tabl
         )
         .with("seed", C::U64(records.iter().map(|r| r.run.seed).collect()));
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
-        t.push(name, axis_column(spec, records, k));
+        t.push(name, axis_column(spec, records.iter().map(|r| &r.run), k));
     }
     t.push(
         "status",
@@ -178,7 +180,6 @@ pub fn series_table(columns: &Columns, records: &[RunRecord]) -> Table {
                 .flat_map(move |(name, s)| s.iter().map(move |&(t, v)| (r, name.as_str(), t, v)))
         })
         .collect();
-    let expanded: Vec<RunRecord> = rows.iter().map(|(r, ..)| (*r).clone()).collect();
     let mut t = Table::new()
         .with(
             "run_index",
@@ -193,7 +194,7 @@ pub fn series_table(columns: &Columns, records: &[RunRecord]) -> Table {
             C::U64(rows.iter().map(|(r, ..)| r.run.replicate as u64).collect()),
         );
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
-        t.push(name, axis_column(spec, &expanded, k));
+        t.push(name, axis_column(spec, rows.iter().map(|(r, ..)| &r.run), k));
     }
     t.push(
         "observable",
@@ -213,13 +214,13 @@ pub fn summary_table(columns: &Columns, records: &[RunRecord]) -> Table {
     let mut points: Vec<usize> = records.iter().map(|r| r.run.point).collect();
     points.sort_unstable();
     points.dedup();
-    let firsts: Vec<RunRecord> = points
+    let firsts: Vec<&RunSpec> = points
         .iter()
-        .map(|p| records.iter().find(|r| r.run.point == *p).unwrap().clone())
+        .map(|p| &records.iter().find(|r| r.run.point == *p).unwrap().run)
         .collect();
     let mut t = Table::new().with("point", C::U64(points.iter().map(|&p| p as u64).collect()));
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
-        t.push(name, axis_column(spec, &firsts, k));
+        t.push(name, axis_column(spec, firsts.iter().copied(), k));
     }
     for m in &columns.metrics {
         let stats: Vec<Stats> = points
