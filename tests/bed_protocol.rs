@@ -294,5 +294,5 @@ fn shipped_bed_studies_parse_and_every_point_is_valid() {
             checked += 1;
         }
     }
-    assert_eq!(checked, 17, "9 full and 8 quick study files");
+    assert_eq!(checked, 20, "12 full and 8 quick study files");
 }

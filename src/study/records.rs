@@ -194,7 +194,10 @@ pub fn series_table(columns: &Columns, records: &[RunRecord]) -> Table {
             C::U64(rows.iter().map(|(r, ..)| r.run.replicate as u64).collect()),
         );
     for (k, (name, spec)) in columns.axes.iter().enumerate() {
-        t.push(name, axis_column(spec, rows.iter().map(|(r, ..)| &r.run), k));
+        t.push(
+            name,
+            axis_column(spec, rows.iter().map(|(r, ..)| &r.run), k),
+        );
     }
     t.push(
         "observable",
