@@ -302,18 +302,29 @@ fn semi_implicit_dry_friction_agrees_with_a_small_step_explicit_reference() {
     assert!(w < 0.05, "dissipated work differs by {w}");
 }
 
-#[test]
-fn piston_force_converges_as_the_time_step_factor_is_refined() {
-    // the default relaxation (3 s + 1 s rest) so that compression starts from a settled bed
+/// 24 discs at 20 mm/s, whose dynamics stay regular, with the default relaxation (3 s + 1 s
+/// rest) so that compression starts from a settled bed.
+fn regular_bed() -> BedParams {
     let mut p = BedParams::defaults();
     p.particles = Some(24);
     p.piston_speed = 0.02;
     p.snapshots = false;
+    p
+}
+
+/// One cycle of seed 1, which must not fail.
+fn succeeding_cycle(p: &BedParams) -> magopt::models::bed::BedOutcome {
+    let o = run_cycle(p, 1, &|_| {});
+    assert!(o.failure.is_none(), "{:?}", o.failure);
+    o
+}
+
+#[test]
+fn piston_force_converges_as_the_time_step_factor_is_refined() {
+    let mut p = regular_bed();
     let mut force = |factor: f64| {
         p.time_step_factor = factor;
-        let o = run_cycle(&p, 1, &|_| {});
-        assert!(o.failure.is_none(), "{:?}", o.failure);
-        o.force_at_max_compression.unwrap()
+        succeeding_cycle(&p).force_at_max_compression.unwrap()
     };
     let reference = force(0.0125);
     let errors: Vec<f64> = [0.8, 0.4, 0.2]
@@ -332,14 +343,10 @@ fn multiple_time_stepping_converges_to_every_step_sums() {
     // piston force against k = 1 shrinks as k does, and is below 1e-3 at the documented k = 4.
     // The cycle work (a small difference of large integrals over stick-slip motion) is
     // printed, not asserted: it moves by 0.1–4 % without a monotone trend in k.
-    let mut p = BedParams::defaults();
-    p.particles = Some(24);
-    p.piston_speed = 0.02;
-    p.snapshots = false;
+    let mut p = regular_bed();
     let mut force = |k: usize| {
         p.far_field_interval = k;
-        let o = run_cycle(&p, 1, &|_| {});
-        assert!(o.failure.is_none(), "{:?}", o.failure);
+        let o = succeeding_cycle(&p);
         (o.force_at_max_compression.unwrap(), o.cycle_work.unwrap())
     };
     let (reference, work) = force(1);

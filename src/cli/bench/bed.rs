@@ -72,10 +72,13 @@ fn row(model: &BedModel, settings: &[(&str, String)], threads: usize) -> Result<
     reset_peak_rss();
     let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
     let n = params.particle_count();
-    let (method, k) = (&params.neighbors, params.far_field_interval);
+    let (method, k) = (
+        format!("{:?}", params.neighbors).to_lowercase(),
+        params.far_field_interval,
+    );
     println!(
         "{n:>7} {:>9} {k:>3} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>11.3} {:>13.1}{}",
-        format!("{method:?}").to_lowercase(),
+        method,
         o.steps,
         o.wall_time_s,
         1e6 * o.wall_time_s / o.steps as f64,
@@ -89,7 +92,7 @@ fn row(model: &BedModel, settings: &[(&str, String)], threads: usize) -> Result<
     );
     Ok(json!({
         "particles": n,
-        "neighbors": format!("{method:?}").to_lowercase(),
+        "neighbors": method,
         "far_field_interval": k,
         "list_radius_D": params.list_radius,
         "time_step_factor": params.time_step_factor,

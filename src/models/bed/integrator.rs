@@ -128,13 +128,38 @@ pub fn kick_and_drift(
     h: f64,
     dt: f64,
 ) {
+    kick_each(state, particles, field, kick, h, Some(dt));
+}
+
+/// One half kick of every particle (friction included).
+pub fn half_kick(
+    state: &mut State,
+    particles: &Particles,
+    field: &ForceField,
+    kick: &Kick,
+    h: f64,
+) {
+    kick_each(state, particles, field, kick, h, None);
+}
+
+/// A half kick of length h of every particle, each followed by a drift of `drift` if given.
+fn kick_each(
+    state: &mut State,
+    particles: &Particles,
+    field: &ForceField,
+    kick: &Kick,
+    h: f64,
+    drift: Option<f64>,
+) {
     type Item<'a> = (
         (&'a mut Vector2<f64>, &'a mut Vector2<f64>),
         (&'a ParticleForce, &'a f64),
     );
     let one = |((x, v), (o, m)): Item| {
         *v = kick.velocity(*v, o.force, o.normal, *m, h);
-        *x += *v * dt;
+        if let Some(dt) = drift {
+            *x += *v * dt;
+        }
     };
     let (position, velocity) = (&mut state.position, &mut state.velocity);
     if position.len() >= PARALLEL_UPDATE_FROM {
@@ -147,31 +172,6 @@ pub fn kick_and_drift(
         position
             .iter_mut()
             .zip(velocity.iter_mut())
-            .zip(field.out.iter().zip(&particles.mass))
-            .for_each(one);
-    }
-}
-
-/// One half kick of every particle (friction included).
-pub fn half_kick(
-    state: &mut State,
-    particles: &Particles,
-    field: &ForceField,
-    kick: &Kick,
-    h: f64,
-) {
-    let one = |(v, (o, m)): (&mut Vector2<f64>, (&ParticleForce, &f64))| {
-        *v = kick.velocity(*v, o.force, o.normal, *m, h)
-    };
-    let velocity = &mut state.velocity;
-    if velocity.len() >= PARALLEL_UPDATE_FROM {
-        velocity
-            .par_iter_mut()
-            .zip(field.out.par_iter().zip(&particles.mass))
-            .for_each(one);
-    } else {
-        velocity
-            .iter_mut()
             .zip(field.out.iter().zip(&particles.mass))
             .for_each(one);
     }

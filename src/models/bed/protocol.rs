@@ -194,6 +194,11 @@ impl<'a> Simulation<'a> {
         (self.progress)(t);
     }
 
+    /// D̂ in ⟨D⟩ of the latest recorded point (each record computes the O(N²) sum once).
+    pub fn last_mean_distance(&self) -> Option<f64> {
+        self.series.get("mean_distance_D").last().map(|&(_, d)| d)
+    }
+
     /// φ at the current piston height.
     pub fn packing_fraction(&self) -> f64 {
         self.geometry
@@ -269,7 +274,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
         sim.geometry.final_height,
         p.piston_speed,
     );
-    out.mean_distance_start = Some(mean_distance(&sim.state.position) / sim.mean_diameter);
+    out.mean_distance_start = sim.last_mean_distance();
     out.record_structure(0, &sim.state.position);
     if p.snapshots {
         out.snapshots.push(sim.snapshot("compression-start"));
@@ -307,7 +312,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     out.max_force = Some(c.max_force);
     out.cycle_work = Some(c.work);
     out.mean_distance_min = Some(c.min_mean_distance);
-    out.mean_distance_end = Some(mean_distance(&sim.state.position) / sim.mean_diameter);
+    out.mean_distance_end = sim.last_mean_distance();
     out.record_structure(2, &sim.state.position);
     if p.snapshots {
         out.snapshots.push(sim.snapshot("end"));
