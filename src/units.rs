@@ -26,6 +26,9 @@
 //! | electric field | V/m, kV/m, MV/m |
 //! | charge per mass | C/kg, mC/kg, uC/kg |
 //! | dynamic viscosity | Pa*s, mPa*s |
+//! | damping coefficient | N*s/m, kg/s |
+//! | angle | rad, mrad, deg |
+//! | temperature | K |
 //!
 //! A magnetic flux density B is entered as a field in tesla (`10 T` means μ0·H = 10 T) and
 //! recovered as μ0·H.
@@ -69,11 +72,17 @@ pub enum Dimension {
     ChargePerMass,
     /// Dynamic viscosity (SI: Pa·s).
     Viscosity,
+    /// Damping coefficient, force per velocity (SI: N·s/m = kg/s).
+    Damping,
+    /// Plane angle (SI: rad).
+    Angle,
+    /// Thermodynamic temperature (SI: K).
+    Temperature,
 }
 
 /// Every dimension, for tests.
 #[cfg(test)]
-const ALL_DIMENSIONS: [Dimension; 14] = [
+const ALL_DIMENSIONS: [Dimension; 17] = [
     Dimension::MagneticField,
     Dimension::Magnetization,
     Dimension::EnergyDensity,
@@ -88,6 +97,9 @@ const ALL_DIMENSIONS: [Dimension; 14] = [
     Dimension::ElectricField,
     Dimension::ChargePerMass,
     Dimension::Viscosity,
+    Dimension::Damping,
+    Dimension::Angle,
+    Dimension::Temperature,
 ];
 
 impl Dimension {
@@ -108,6 +120,9 @@ impl Dimension {
             Dimension::ElectricField => "electric field",
             Dimension::ChargePerMass => "charge per mass",
             Dimension::Viscosity => "dynamic viscosity",
+            Dimension::Damping => "damping coefficient",
+            Dimension::Angle => "angle",
+            Dimension::Temperature => "temperature",
         }
     }
 
@@ -129,6 +144,9 @@ impl Dimension {
             Dimension::ElectricField => &["V/m", "kV/m", "MV/m"],
             Dimension::ChargePerMass => &["C/kg", "mC/kg", "uC/kg"],
             Dimension::Viscosity => &["Pa*s", "mPa*s"],
+            Dimension::Damping => &["N*s/m", "kg/s"],
+            Dimension::Angle => &["rad", "mrad", "deg"],
+            Dimension::Temperature => &["K"],
         }
     }
 
@@ -217,6 +235,14 @@ fn factor(unit: &str) -> Option<f64> {
         // dynamic viscosity
         "Pa*s" => 1.0,
         "mPa*s" => 1.0e-3,
+        // damping coefficient
+        "N*s/m" | "kg/s" => 1.0,
+        // angle
+        "rad" => 1.0,
+        "mrad" => 1.0e-3,
+        "deg" => PI / 180.0,
+        // temperature
+        "K" => 1.0,
         _ => return None,
     };
     Some(f)
@@ -386,6 +412,12 @@ mod tests {
             ("uC/kg", 1.0e-6),
             ("Pa*s", 1.0),
             ("mPa*s", 1.0e-3),
+            ("N*s/m", 1.0),
+            ("kg/s", 1.0),
+            ("rad", 1.0),
+            ("mrad", 1.0e-3),
+            ("deg", PI / 180.0),
+            ("K", 1.0),
         ];
         for &(unit, f) in expected {
             assert!(close(si_per_unit(unit), f, 1e-15), "{unit}");

@@ -39,7 +39,12 @@ iterations = 6
 fn at_field(model: &AlignModel, base: &AlignSetup, field_koe: f64) -> AlignSetup {
     let mut setup = base.clone();
     model
-        .set(&mut setup, "field", &Value::Number(field_koe * KOE))
+        .set(
+            &mut setup,
+            "field",
+            &Value::Number(field_koe * KOE),
+            "field",
+        )
         .unwrap();
     setup
 }
@@ -106,7 +111,7 @@ fn friction_slows_alignment_under_pressure() {
     let tau = |mu: f64| {
         let mut setup = base.clone();
         model
-            .set(&mut setup, "friction", &Value::Number(mu))
+            .set(&mut setup, "friction", &Value::Number(mu), "friction")
             .unwrap();
         dem::align(&setup.params, packing).alignment_time_s.unwrap()
     };

@@ -5,7 +5,7 @@
 
 use magopt::models::bed::forces::{pair_force, ForceField};
 use magopt::models::bed::integrator::{step, time_step, Kick};
-use magopt::models::bed::params::{BedParams, Friction, FrictionScheme, Neighbors};
+use magopt::models::bed::params::{BedParams, Friction, FrictionScheme, Neighbors, Reach};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::state::{Geometry, Particles, State};
 use nalgebra::Vector2;
@@ -201,8 +201,8 @@ fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums_bit_for_bit() {
     assert!(exact.failure.is_none(), "{:?}", exact.failure);
     for kind in [Neighbors::Cells, Neighbors::Verlet] {
         p.neighbors = kind;
-        p.cutoff = 100.0;
-        p.list_radius = 120.0;
+        p.cutoff = Reach::Diameters(100.0);
+        p.list_radius = Reach::Diameters(120.0);
         let listed = run_cycle(&p, 3, &|_| {});
         assert_eq!(listed.max_force, exact.max_force, "{kind:?}");
         assert_eq!(listed.series, exact.series, "{kind:?}");
@@ -212,11 +212,11 @@ fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums_bit_for_bit() {
 #[test]
 fn the_list_radius_changes_the_rebuilds_but_no_result() {
     let mut p = small_bed();
-    p.cutoff = 3.0; // inside the 16-disc cell, so the cut-off matters
+    p.cutoff = Reach::Diameters(3.0); // inside the 16-disc cell, so the cut-off matters
     let runs: Vec<_> = [3.3, 5.0, 11.26]
         .iter()
         .map(|&rv| {
-            p.list_radius = rv;
+            p.list_radius = Reach::Diameters(rv);
             run_cycle(&p, 2, &|_| {})
         })
         .collect();

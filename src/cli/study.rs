@@ -1,20 +1,20 @@
 //! `magopt sweep`, `optimize`, `collect` and `plot`: study files in, result directories out.
 
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
 use super::{command_line, threads};
+use super::{progress, EXIT_INCOMPLETE};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
 use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
-use crate::study::model::StudyModel;
+use crate::study::model::{ParamSpec, StudyModel, Value};
+use crate::study::optimize::optimum_json;
 use crate::study::records;
 use crate::study::runner::{self, Shard, SweepOptions};
 use crate::study::spec::{model_name, Study};
-use crate::units::to_unit;
 use crate::{Error, Result};
 
 /// `magopt sweep` options.
@@ -61,6 +61,9 @@ pub struct CollectArgs {
     /// Where the merged result goes [default: the first directory].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Accept a result with runs missing (exit 0 instead of 4).
+    #[arg(long)]
+    allow_partial: bool,
 }
 
 /// `magopt plot` options.
@@ -111,20 +114,8 @@ macro_rules! with_model {
 /// The models a study file may name.
 const MODELS: &[&str] = &["align", "bed", "damper", "blast"];
 
-fn bar() -> ProgressBar {
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs (ETA {eta})",
-        )
-        .expect("static template"),
-    );
-    bar.enable_steady_tick(std::time::Duration::from_millis(200));
-    bar
-}
-
 /// `magopt sweep`.
-pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<()> {
+pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
     threads(args.threads)?;
     let (text, model) = read_study(&args.study)?;
     let origin = args.study.display().to_string();
@@ -140,26 +131,27 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<()> {
             shard: args.shard,
             command: command_line(),
         };
-        let bar = bar();
+        let bar = progress::runs(0, false);
         let report = runner::sweep(m, &study, &options, |n| bar.set_length(n as u64), &|| {
             bar.inc(1)
         });
         bar.finish_and_clear();
         let report = report?;
         println!(
-            "{}: {} runs done now, {} were already done, {} not ok; results in {}",
+            "{}: {} runs done now, {} were already done, {} failed or not reached (recorded as \
+             data); results in {}",
             study.name,
             report.ran,
             report.skipped,
             report.unsuccessful,
             out.display()
         );
-        Ok(())
+        Ok(0)
     })
 }
 
 /// `magopt optimize`.
-pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<()> {
+pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
     threads(args.threads)?;
     let (text, model) = read_study(&args.study)?;
     let origin = args.study.display().to_string();
@@ -173,66 +165,25 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<()> {
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("results").join(format!("{}-optimize", study.name)));
-        let bar = bar();
-        bar.set_length((spec.scan_points as u64 + spec.iterations) * study.replicates as u64);
+        let evaluations = (spec.scan_points as u64 + spec.iterations) * study.replicates as u64;
+        let bar = progress::runs(evaluations, true);
         let result = crate::study::optimize::optimize(m, &study, Some(&out), &|| bar.inc(1));
         bar.finish_and_clear();
         let result = result?;
         records::write_optimize_results(m, &study, &out, &result.records, &command_line())?;
-        let summary = optimum_json(&study, &result);
+        let summary = optimum_json(m, &study, &result);
         atomic::write_json_atomic(&out.join("optimum.json"), &summary)?;
         if args.json {
             println!("{summary}");
         } else {
             print_optimum(&study, &result, &out);
         }
-        Ok(())
+        Ok(0)
     })
 }
 
-fn display(spec: &crate::study::model::ParamSpec, x: f64) -> f64 {
-    match spec.kind {
-        crate::study::model::ParamKind::Quantity { unit, .. } => to_unit(x, unit),
-        _ => x,
-    }
-}
-
-fn optimum_json<M: StudyModel>(
-    study: &Study<M>,
-    result: &crate::study::optimize::StudyOptimum,
-) -> serde_json::Value {
-    let spec = study.optimize.as_ref().expect("optimize");
-    let finite = |x: f64| {
-        if x.is_finite() {
-            serde_json::json!(x)
-        } else {
-            serde_json::Value::Null
-        }
-    };
-    let named = |x: &[f64]| -> serde_json::Map<String, serde_json::Value> {
-        spec.free
-            .iter()
-            .zip(x)
-            .map(|((s, ..), &v)| (s.column(), serde_json::json!(display(s, v))))
-            .collect()
-    };
-    let one = result.one_dimensional.as_ref();
-    let (s0, ..) = spec.free[0];
-    serde_json::json!({
-        "study": study.name,
-        "metric": spec.metric,
-        "goal": if spec.maximize { "maximize" } else { "minimize" },
-        "optimum": named(&result.best),
-        "value": finite(result.value),
-        "uncertainty": one.map(|o| finite(display(s0, o.x + o.uncertainty) - display(s0, o.x))),
-        "band": one.map(|o| [display(s0, o.band.0), display(s0, o.band.1)]),
-        "evaluations": result.evaluations.iter().map(|(x, p)| serde_json::json!({
-            "parameters": named(x), "mean": finite(p.mean()), "std": finite(p.std()),
-            "replicates_with_value": p.values.iter().flatten().count(), "replicates": p.values.len(),
-        })).collect::<Vec<_>>(),
-        "seeds": (0..study.replicates).map(|r| study.seed + r as u64).collect::<Vec<_>>(),
-        "magopt_version": records::VERSION,
-    })
+fn display(spec: &ParamSpec, x: f64) -> f64 {
+    spec.display(&Value::Number(x)).as_number()
 }
 
 fn print_optimum<M: StudyModel>(
@@ -279,7 +230,7 @@ fn print_optimum<M: StudyModel>(
 }
 
 /// `magopt collect`.
-pub fn collect(db: MaterialDb, args: &CollectArgs) -> Result<()> {
+pub fn collect(db: MaterialDb, args: &CollectArgs) -> Result<i32> {
     let first = &args.dirs[0];
     let text = runner::saved_study_text(first)?;
     for dir in &args.dirs[1..] {
@@ -303,15 +254,23 @@ pub fn collect(db: MaterialDb, args: &CollectArgs) -> Result<()> {
             study.name,
             out.display()
         );
-        Ok(())
+        if n < total && !args.allow_partial {
+            eprintln!(
+                "magopt: {} of {total} runs are missing (run the missing shards, or accept a \
+                 partial result with --allow-partial)",
+                total - n
+            );
+            return Ok(EXIT_INCOMPLETE);
+        }
+        Ok(0)
     })
 }
 
 /// `magopt plot`.
-pub fn plot(args: &PlotArgs) -> Result<()> {
+pub fn plot(args: &PlotArgs) -> Result<i32> {
     let written = crate::study::plot::plot_study(&args.dir)?;
     for path in written {
         println!("{}", path.display());
     }
-    Ok(())
+    Ok(0)
 }

@@ -5,6 +5,7 @@
 
 pub mod model;
 pub mod optimize;
+pub mod param;
 pub mod plot;
 pub mod records;
 pub mod runner;

@@ -2,198 +2,106 @@
 //! out. Every model implements [`StudyModel`]; the runner never touches model internals.
 
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
-use crate::units::{parse_quantity, si_per_unit, to_unit, Dimension};
+pub use super::param::{Param, ParamKind, ParamSpec, Value};
 use crate::{Error, Result};
 
-/// A parameter value after unit conversion: numbers are SI.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum Value {
-    /// A number in SI units (or dimensionless).
-    Number(f64),
-    /// A name or a choice.
-    Text(String),
+/// How a run ended.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "StatusFields", into = "StatusFields")]
+pub enum RunStatus {
+    /// It ran to the end (and reached its target, where it has one).
+    Ok,
+    /// It ran to its time limit without reaching its target.
+    NotReached,
+    /// It broke down (a blow-up, a degenerate state); the reason says how.
+    Failed(String),
 }
 
-impl Value {
-    /// The text of a name or choice ("" for a number).
-    pub fn as_text(&self) -> &str {
+/// The on-disk form of a status: `status` ("ok", "not-reached", "failed") and `reason` (null
+/// unless failed; records written before 0.2 hold "" instead of null).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct StatusFields {
+    status: String,
+    #[serde(default)]
+    reason: Option<String>,
+}
+
+impl TryFrom<StatusFields> for RunStatus {
+    type Error = String;
+    fn try_from(f: StatusFields) -> std::result::Result<Self, String> {
+        match f.status.as_str() {
+            "ok" => Ok(RunStatus::Ok),
+            "not-reached" => Ok(RunStatus::NotReached),
+            "failed" => Ok(RunStatus::Failed(f.reason.unwrap_or_default())),
+            other => Err(format!("unknown run status '{other}'")),
+        }
+    }
+}
+
+impl From<RunStatus> for StatusFields {
+    fn from(s: RunStatus) -> Self {
+        let status = s.label().to_string();
+        let reason = match s {
+            RunStatus::Failed(r) => Some(r),
+            _ => None,
+        };
+        StatusFields { status, reason }
+    }
+}
+
+impl RunStatus {
+    /// "ok", "not-reached" or "failed".
+    pub fn label(&self) -> &'static str {
         match self {
-            Value::Text(t) => t,
-            Value::Number(_) => "",
+            RunStatus::Ok => "ok",
+            RunStatus::NotReached => "not-reached",
+            RunStatus::Failed(_) => "failed",
         }
     }
 
-    /// The number (NaN for a text; the parameter specs keep the two apart).
-    pub fn as_number(&self) -> f64 {
+    /// Why it failed.
+    pub fn reason(&self) -> Option<&str> {
         match self {
-            Value::Number(x) => *x,
-            Value::Text(_) => f64::NAN,
+            RunStatus::Failed(r) => Some(r),
+            _ => None,
         }
     }
 
-    /// Canonical text for run ids: exact (round-trip) for numbers.
-    pub fn canonical(&self) -> String {
-        match self {
-            Value::Number(x) => format!("{x:?}"),
-            Value::Text(t) => format!("{t:?}"),
-        }
+    /// Whether the run succeeded.
+    pub fn is_ok(&self) -> bool {
+        *self == RunStatus::Ok
     }
 }
 
-/// What kind of value a parameter takes.
-#[derive(Debug, Clone, Copy)]
-pub enum ParamKind {
-    /// A physical quantity: strings with units, bare numbers in `unit` (also the display unit).
-    Quantity {
-        /// Dimension accepted.
-        dim: Dimension,
-        /// Default and display unit.
-        unit: &'static str,
-    },
-    /// A dimensionless finite number.
-    Number,
-    /// A whole number ≥ 1.
-    Count,
-    /// One of a fixed list of names.
-    Choice(&'static [&'static str]),
-    /// Free text (e.g. a material name, checked by the model).
-    Name,
+/// What a run may use besides its parameters: a progress report and a directory for the
+/// files it writes itself (snapshots, figures).
+#[derive(Clone, Copy)]
+pub struct RunContext<'a> {
+    /// Called now and then with the fraction of the run done, in [0, 1].
+    pub progress: &'a (dyn Fn(f64) + Sync),
+    /// Where the run writes its own files, if anywhere.
+    pub artifacts: Option<&'a Path>,
 }
 
-/// One parameter a model accepts.
-#[derive(Debug, Clone, Copy)]
-pub struct ParamSpec {
-    /// Name in study files (snake_case) and, with dashes, on the command line.
-    pub name: &'static str,
-    /// Value kind.
-    pub kind: ParamKind,
-}
-
-impl ParamSpec {
-    /// Parses a study-file or command-line value.
-    pub fn parse(&self, value: &toml::Value) -> Result<Value> {
-        let bad = |what: String| Error::input(format!("{}: {what}", self.name));
-        match (self.kind, value) {
-            (ParamKind::Quantity { dim, unit }, toml::Value::String(s)) => {
-                parse_quantity(s, dim, unit).map(Value::Number).map_err(bad)
-            }
-            (ParamKind::Quantity { unit, .. }, v) => {
-                Ok(Value::Number(number(v).map_err(bad)? * si_per_unit(unit)))
-            }
-            (ParamKind::Number, v) => Ok(Value::Number(number(v).map_err(bad)?)),
-            (ParamKind::Count, v) => {
-                let x = number(v).map_err(bad)?;
-                if x >= 1.0 && x.fract() == 0.0 && x <= 1e12 {
-                    Ok(Value::Number(x))
-                } else {
-                    Err(bad(format!("{x} is not allowed (need a whole number ≥ 1)")))
-                }
-            }
-            (ParamKind::Choice(options), toml::Value::String(s))
-                if options.contains(&s.as_str()) =>
-            {
-                Ok(Value::Text(s.clone()))
-            }
-            (ParamKind::Choice(options), v) => {
-                Err(bad(format!("{v} is not one of {}", options.join(", "))))
-            }
-            (ParamKind::Name, toml::Value::String(s)) => Ok(Value::Text(s.clone())),
-            (ParamKind::Name, v) => Err(bad(format!("{v} is not a name (need a string)"))),
-        }
-    }
-
-    /// Column name of the value in display units (`field_kOe`, `pressure_atm`, `friction`).
-    pub fn column(&self) -> String {
-        match self.kind {
-            ParamKind::Quantity { unit, .. } => {
-                format!(
-                    "{}_{}",
-                    self.name,
-                    unit.replace('/', "_per_").replace('*', "_")
-                )
-            }
-            _ => self.name.to_string(),
-        }
-    }
-
-    /// Axis label with unit.
-    pub fn label(&self) -> String {
-        match self.kind {
-            ParamKind::Quantity { unit, .. } => format!("{} ({unit})", self.name.replace('_', " ")),
-            _ => self.name.replace('_', " "),
-        }
-    }
-
-    /// A TOML literal that parses back to exactly `value` (quantities carry their SI unit,
-    /// since a bare number means the display unit).
-    pub fn toml_literal(&self, value: &Value) -> String {
-        match (self.kind, value) {
-            (ParamKind::Quantity { dim, .. }, Value::Number(x)) => {
-                format!("\"{x:?} {}\"", si_unit(dim))
-            }
-            (ParamKind::Count, Value::Number(x)) => format!("{}", *x as u64),
-            (_, Value::Number(x)) => format!("{x:?}"),
-            (_, Value::Text(t)) => format!("{t:?}"),
-        }
-    }
-
-    /// A value in display units (numbers) or as text.
-    pub fn display(&self, value: &Value) -> Value {
-        match (self.kind, value) {
-            (ParamKind::Quantity { unit, .. }, Value::Number(x)) => {
-                Value::Number(to_unit(*x, unit))
-            }
-            (_, v) => v.clone(),
-        }
-    }
-}
-
-/// The SI unit symbol of a dimension (as the unit parser spells it).
-fn si_unit(dim: Dimension) -> &'static str {
-    match dim {
-        Dimension::MagneticField | Dimension::Magnetization => "A/m",
-        Dimension::EnergyDensity => "J/m3",
-        Dimension::Pressure => "Pa",
-        Dimension::Density => "kg/m3",
-        Dimension::Length => "m",
-        Dimension::Time => "s",
-        Dimension::Velocity => "m/s",
-        Dimension::Acceleration => "m/s2",
-        Dimension::Mass => "kg",
-        Dimension::Energy => "J",
-        Dimension::ElectricField => "V/m",
-        Dimension::ChargePerMass => "C/kg",
-        Dimension::Viscosity => "Pa*s",
-    }
-}
-
-/// A finite number from a TOML number or a numeric string.
-fn number(value: &toml::Value) -> std::result::Result<f64, String> {
-    let x = match value {
-        toml::Value::Float(x) => *x,
-        toml::Value::Integer(i) => *i as f64,
-        toml::Value::String(s) => s
-            .trim()
-            .parse::<f64>()
-            .map_err(|_| format!("'{s}' is not a number"))?,
-        other => return Err(format!("{other} is not a number")),
+impl RunContext<'static> {
+    /// No progress report, no files: what sweeps and optimizations use.
+    pub const QUIET: RunContext<'static> = RunContext {
+        progress: &|_| {},
+        artifacts: None,
     };
-    if x.is_finite() {
-        Ok(x)
-    } else {
-        Err(format!("{x} is not a finite number"))
-    }
 }
 
 /// What one run reports to the runner.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunResult {
-    /// "ok", "not-reached" or "failed".
-    pub status: String,
-    /// Why it failed (empty otherwise).
-    pub reason: String,
+    /// How it ended (serialized as `status` and `reason`).
+    #[serde(flatten)]
+    pub status: RunStatus,
+    /// Warnings of a run that still counts (e.g. a structure analysis that could not be done).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// Scalar metrics by name (None: not available in this run).
     pub metrics: Vec<(String, Option<f64>)>,
     /// Time series by observable name: (time in s, value).
@@ -213,101 +121,79 @@ impl RunResult {
 }
 
 /// A model as the study runner sees it.
-pub trait StudyModel: Sync {
+pub trait StudyModel: Sync + Sized + 'static {
     /// Typed parameters of one run.
-    type Params: Clone + Send + Sync;
+    type Params: Clone + Send + Sync + 'static;
     /// Name in study files.
     fn name(&self) -> &'static str;
-    /// Every parameter it accepts.
-    fn parameters(&self) -> &'static [ParamSpec];
+    /// Every parameter it accepts, each declared once.
+    fn parameters(&self) -> &'static [Param<Self, Self::Params>];
     /// Every scalar metric it reports.
     fn metrics(&self) -> &'static [&'static str];
     /// Axis labels of its series observables.
     fn series_labels(&self) -> &'static [(&'static str, &'static str)];
     /// The documented defaults.
     fn defaults(&self) -> Self::Params;
-    /// Sets one parameter (already unit-converted).
-    fn set(&self, params: &mut Self::Params, name: &str, value: &Value) -> Result<()>;
-    /// Checks a complete parameter set (names the offending value).
+    /// Checks a complete parameter set across parameters (each value's own range is checked
+    /// when it is parsed); the message names the parameters.
     fn validate(&self, params: &Self::Params) -> Result<()>;
-    /// Runs one (parameters, seed). Blow-ups are failed results, not errors.
-    fn run(&self, params: &Self::Params, seed: u64) -> RunResult;
+    /// Runs one (parameters, seed). Blow-ups are failed results; an error is only a file the
+    /// run could not write into `context.artifacts`.
+    fn run(&self, params: &Self::Params, seed: u64, context: &RunContext) -> Result<RunResult>;
 
-    /// The spec of a parameter, or an error listing the known ones.
-    fn spec(&self, name: &str) -> Result<&'static ParamSpec> {
+    /// Checks a complete parameter set: every declared value within its range, then the
+    /// model's cross-parameter [`validate`](Self::validate).
+    fn check(&self, params: &Self::Params) -> Result<()> {
+        for p in self.parameters() {
+            if let Some(value) = (p.get)(params) {
+                p.spec
+                    .check(&value)
+                    .map_err(|reason| Error::input(format!("{}: {reason}", p.spec.name)))?;
+            }
+        }
+        self.validate(params)
+    }
+
+    /// The declaration of a parameter (by name or alias), or an error listing the known ones.
+    fn param(&self, key: &str) -> Result<&'static Param<Self, Self::Params>> {
         self.parameters()
             .iter()
-            .find(|p| p.name == name)
+            .find(|p| p.spec.is_named(key))
             .ok_or_else(|| {
-                let known: Vec<&str> = self.parameters().iter().map(|p| p.name).collect();
+                let known: Vec<&str> = self.parameters().iter().map(|p| p.spec.name).collect();
                 Error::input(format!(
-                    "unknown {} parameter '{name}' (known: {})",
+                    "unknown {} parameter (known: {})",
                     self.name(),
                     known.join(", ")
                 ))
             })
     }
 
-    /// Parses and sets one parameter from a study-file value.
-    fn set_from(&self, params: &mut Self::Params, name: &str, value: &toml::Value) -> Result<()> {
-        let parsed = self.spec(name)?.parse(value)?;
-        self.set(params, name, &parsed)
+    /// The spec of a parameter (by name or alias).
+    fn spec(&self, key: &str) -> Result<&'static ParamSpec> {
+        self.param(key).map(|p| &p.spec)
     }
-}
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+    /// Sets a parsed value; `at` names where it came from (`base.field`, `--field`) in the
+    /// error.
+    fn set(&self, params: &mut Self::Params, key: &str, value: &Value, at: &str) -> Result<()> {
+        let param = self.param(key)?;
+        (param.set)(self, params, value).map_err(|reason| Error::input(format!("{at}: {reason}")))
+    }
 
-    #[test]
-    fn toml_literals_parse_back_exactly() {
-        let specs = [
-            ParamSpec {
-                name: "field",
-                kind: ParamKind::Quantity {
-                    dim: Dimension::MagneticField,
-                    unit: "kOe",
-                },
-            },
-            ParamSpec {
-                name: "pressure",
-                kind: ParamKind::Quantity {
-                    dim: Dimension::Pressure,
-                    unit: "atm",
-                },
-            },
-            ParamSpec {
-                name: "diameter",
-                kind: ParamKind::Quantity {
-                    dim: Dimension::Length,
-                    unit: "um",
-                },
-            },
-            ParamSpec {
-                name: "particles",
-                kind: ParamKind::Count,
-            },
-            ParamSpec {
-                name: "friction",
-                kind: ParamKind::Number,
-            },
-            ParamSpec {
-                name: "material",
-                kind: ParamKind::Name,
-            },
-        ];
-        let values = [
-            Value::Number(3.183098861837907e6),
-            Value::Number(50662.5),
-            Value::Number(1.1e-6),
-            Value::Number(1000.0),
-            Value::Number(0.1 + 0.2),
-            Value::Text("sr\"fe".into()),
-        ];
-        for (spec, value) in specs.iter().zip(&values) {
-            let literal = spec.toml_literal(value);
-            let parsed: toml::Table = toml::from_str(&format!("x = {literal}")).unwrap();
-            assert_eq!(&spec.parse(&parsed["x"]).unwrap(), value, "{literal}");
-        }
+    /// Parses, range-checks and sets a study-file or command-line value.
+    fn set_from(
+        &self,
+        params: &mut Self::Params,
+        key: &str,
+        raw: &toml::Value,
+        at: &str,
+    ) -> Result<Value> {
+        let value = self
+            .spec(key)?
+            .parse(raw)
+            .map_err(|reason| Error::input(format!("{at}: {reason}")))?;
+        self.set(params, key, &value, at)?;
+        Ok(value)
     }
 }

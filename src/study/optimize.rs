@@ -10,8 +10,9 @@ use rayon::prelude::*;
 use std::cell::RefCell;
 use std::path::Path;
 
-use super::model::{StudyModel, Value};
-use super::records::{self, RunRecord};
+use super::model::{ParamSpec, RunContext, StudyModel, Value};
+use super::records::RunRecord;
+use super::runner::load_or_run;
 use super::spec::{run_id, Axis, OptimizeSpec, RunSpec, Study};
 use crate::optimize::{minimize_1d, Optimum, Point, Settings};
 use crate::{Error, Result};
@@ -64,9 +65,10 @@ impl<M: StudyModel> Evaluator<'_, M> {
         let mut params = self.study.base.clone();
         let values: Vec<Value> = x.iter().map(|&v| Value::Number(v)).collect();
         for ((spec, ..), v) in self.spec.free.iter().zip(&values) {
-            self.model.set(&mut params, spec.name, v)?;
+            let at = format!("optimize.parameters.{}", spec.name);
+            self.model.set(&mut params, spec.name, v, &at)?;
         }
-        self.model.validate(&params)?;
+        self.model.check(&params)?;
         let point = self.evaluations.borrow().len();
         let axes = self.axes();
         let (model, study, out, tick) = (self.model, self.study, self.out, self.tick);
@@ -84,21 +86,8 @@ impl<M: StudyModel> Evaluator<'_, M> {
                     seed,
                     values: values.clone(),
                 };
-                let saved = match out {
-                    Some(dir) => records::load(dir, &run.id)?,
-                    None => None,
-                };
-                let record = match saved {
-                    // a saved run keeps its result; its position is this evaluation's
-                    Some(saved) => RunRecord { run, ..saved },
-                    None => {
-                        let record = RunRecord::new(&run, model.run(&params, seed));
-                        if let Some(dir) = out {
-                            records::save(dir, &record)?;
-                        }
-                        record
-                    }
-                };
+                // a saved run keeps its result; its position is this evaluation's
+                let record = load_or_run(model, &run, &params, out, true, &RunContext::QUIET)?;
                 tick();
                 Ok(record)
             })
@@ -254,4 +243,55 @@ fn nelder_mead(spec: &OptimizeSpec, evaluate: &dyn Fn(&[f64]) -> Vec<Option<f64>
             .configure(|s| s.max_iters(spec.iterations))
             .run();
     }
+}
+
+/// `optimum.json` and `--json` of `magopt optimize` and `magopt optimize-field` (one schema):
+/// the optimum per free parameter in display units (columns such as `field_kOe`), the mean
+/// metric there, for one free parameter the uncertainty and the near-optimal band, every
+/// evaluation, the seeds and the version.
+pub fn optimum_json<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    result: &StudyOptimum,
+) -> serde_json::Value {
+    let Some(spec) = study.optimize.as_ref() else {
+        return serde_json::Value::Null;
+    };
+    let finite = |x: f64| {
+        if x.is_finite() {
+            serde_json::json!(x)
+        } else {
+            serde_json::Value::Null
+        }
+    };
+    let shown = |s: &ParamSpec, x: f64| s.display(&Value::Number(x)).as_number();
+    let named = |x: &[f64]| -> serde_json::Map<String, serde_json::Value> {
+        spec.free
+            .iter()
+            .zip(x)
+            .map(|((s, ..), &v)| (s.column(), finite(shown(s, v))))
+            .collect()
+    };
+    let one = result.one_dimensional.as_ref();
+    let (s0, ..) = spec.free[0];
+    let single = |f: &dyn Fn(&Optimum) -> serde_json::Value| {
+        one.map(|o| serde_json::json!({ s0.column(): f(o) }))
+    };
+    serde_json::json!({
+        "study": study.name,
+        "model": model.name(),
+        "metric": spec.metric,
+        "goal": if spec.maximize { "maximize" } else { "minimize" },
+        "optimum": named(&result.best),
+        "value": finite(result.value),
+        "uncertainty": single(&|o| finite(shown(s0, o.x + o.uncertainty) - shown(s0, o.x))),
+        "band": single(&|o| serde_json::json!([shown(s0, o.band.0), shown(s0, o.band.1)])),
+        "evaluations": result.evaluations.iter().map(|(x, p)| serde_json::json!({
+            "parameters": named(x), "mean": finite(p.mean()), "std": finite(p.std()),
+            "replicates_with_value": p.values.iter().flatten().count(),
+            "replicates": p.values.len(),
+        })).collect::<Vec<_>>(),
+        "seeds": (0..study.replicates).map(|r| study.seed.wrapping_add(r as u64)).collect::<Vec<_>>(),
+        "magopt_version": super::records::VERSION,
+    })
 }

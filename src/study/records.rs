@@ -120,7 +120,8 @@ fn axis_column<'a>(
 use crate::output::table::ColumnData;
 
 /// One row per run: index, id, point, replicate, seed, swept parameters (display units), status,
-/// reason, metrics, wall time, version, model.
+/// reason (of a failure), notes (warnings of a run that counts), metrics, wall time, version,
+/// model.
 pub fn runs_table(model: &str, columns: &Columns, records: &[RunRecord]) -> Table {
     let mut t = Table::new()
         .with(
@@ -145,11 +146,25 @@ pub fn runs_table(model: &str, columns: &Columns, records: &[RunRecord]) -> Tabl
     }
     t.push(
         "status",
-        C::Str(records.iter().map(|r| r.result.status.clone()).collect()),
+        C::Str(
+            records
+                .iter()
+                .map(|r| r.result.status.label().to_string())
+                .collect(),
+        ),
     );
     t.push(
         "reason",
-        C::Str(records.iter().map(|r| r.result.reason.clone()).collect()),
+        C::Str(
+            records
+                .iter()
+                .map(|r| r.result.status.reason().unwrap_or_default().to_string())
+                .collect(),
+        ),
+    );
+    t.push(
+        "notes",
+        C::Str(records.iter().map(|r| r.result.notes.join("; ")).collect()),
     );
     for m in &columns.metrics {
         t.push(

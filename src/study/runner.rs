@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
-use super::model::StudyModel;
+use super::model::{RunContext, StudyModel};
 use super::records::{self, RunRecord};
 use super::spec::{RunSpec, Study};
 use crate::output::atomic::prepare_output_dir;
@@ -81,6 +81,61 @@ pub fn pending(
     Ok((todo, done))
 }
 
+/// The one load-or-run of sweeps, optimizations and single runs: with `reuse`, the record of
+/// `run` saved in `dir` (placed at `run`'s position), else the run itself, saved into `dir`
+/// the moment it finishes.
+pub fn load_or_run<M: StudyModel>(
+    model: &M,
+    run: &RunSpec,
+    params: &M::Params,
+    dir: Option<&Path>,
+    reuse: bool,
+    context: &RunContext,
+) -> Result<RunRecord> {
+    if let (true, Some(dir)) = (reuse, dir) {
+        if let Some(saved) = records::load(dir, &run.id)? {
+            return Ok(RunRecord {
+                run: run.clone(),
+                ..saved
+            });
+        }
+    }
+    let record = RunRecord::new(run, model.run(params, run.seed, context)?);
+    if let Some(dir) = dir {
+        records::save(dir, &record)?;
+    }
+    Ok(record)
+}
+
+/// A one-point study's single run (the `align`, `bed`, `damper` and `blast` commands): run
+/// with a progress report, and with `out`, the run's own files and the tables written there.
+pub fn single<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    out: Option<&Path>,
+    progress: &(dyn Fn(f64) + Sync),
+    command: &str,
+) -> Result<RunRecord> {
+    let run = study
+        .runs(model)
+        .into_iter()
+        .next()
+        .ok_or_else(|| Error::input("the study has no run"))?;
+    let params = study.params_at(model, &run.values)?;
+    if let Some(dir) = out {
+        prepare_output_dir(dir)?;
+    }
+    let context = RunContext {
+        progress,
+        artifacts: out,
+    };
+    let record = load_or_run(model, &run, &params, out, false, &context)?;
+    if let Some(dir) = out {
+        records::write_results(model, study, dir, std::slice::from_ref(&record), command)?;
+    }
+    Ok(record)
+}
+
 /// Runs a study's grid. `tick` is called after every finished run; `total` is told the number
 /// of runs to do before the first starts.
 pub fn sweep<M: StudyModel>(
@@ -106,8 +161,8 @@ pub fn sweep<M: StudyModel>(
         .par_iter()
         .map(|run| {
             let params = study.params_at(model, &run.values)?;
-            let record = RunRecord::new(run, model.run(&params, run.seed));
-            records::save(&options.out, &record)?;
+            let out = Some(options.out.as_path());
+            let record = load_or_run(model, run, &params, out, false, &RunContext::QUIET)?;
             tick();
             Ok(record)
         })
@@ -117,7 +172,7 @@ pub fn sweep<M: StudyModel>(
         done.push(record?);
     }
     done.sort_by_key(|r| r.run.index);
-    let unsuccessful = done.iter().filter(|r| r.result.status != "ok").count();
+    let unsuccessful = done.iter().filter(|r| !r.result.status.is_ok()).count();
     records::write_results(model, study, &options.out, &done, &options.command)?;
     Ok(SweepReport {
         ran,

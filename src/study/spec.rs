@@ -160,11 +160,21 @@ impl<M: StudyModel> Study<M> {
             .map(|o| optimize(model, o))
             .transpose()
             .map_err(at)?;
-        let name = raw.name.unwrap_or_else(|| {
-            std::path::Path::new(origin)
+        let name = match raw.name {
+            Some(name) => plain_name(&name).map_err(at)?,
+            None => std::path::Path::new(origin)
                 .file_stem()
-                .map_or("study".into(), |s| s.to_string_lossy().into_owned())
-        });
+                .map_or("study".into(), |s| s.to_string_lossy().into_owned()),
+        };
+        if let Some(axis) = axes
+            .iter()
+            .find(|a| base_values.iter().any(|(k, _)| k == a.spec.name))
+        {
+            return Err(at(Error::input(format!(
+                "sweep.{0}: {0} is also set in [base] (set it in one place)",
+                axis.spec.name
+            ))));
+        }
         let study = Self {
             name,
             replicates,
@@ -182,6 +192,46 @@ impl<M: StudyModel> Study<M> {
         Ok(study)
     }
 
+    /// A study made from values given elsewhere (the command line): no sweep, optionally one
+    /// free parameter. Its text is written first and parsed back, so the saved study.toml is
+    /// exactly what ran and `magopt sweep`/`optimize` on it repeat the run. `origin` says in a
+    /// comment where it came from.
+    pub fn one_point(
+        model: &M,
+        values: &[(String, Value)],
+        replicates: usize,
+        seed: u64,
+        optimize: Option<&OptimizeSpec>,
+        name: &str,
+        origin: &str,
+    ) -> Result<Self> {
+        let is_free = |k: &str| optimize.is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k));
+        let mut text = format!(
+            "# written by `{}`\nname = \"{name}\"\nmodel = \"{}\"\nreplicates = {replicates}\n\
+             seed = {seed}\n\n[base]\n",
+            origin.replace('`', "'").replace('\n', " "),
+            model.name()
+        );
+        for (k, v) in values.iter().filter(|(k, _)| !is_free(k)) {
+            text += &format!("{k} = {}\n", model.spec(k)?.toml_literal(v));
+        }
+        if let Some(o) = optimize {
+            let (spec, lo, hi) = o.free[0];
+            text += &format!(
+                "\n[optimize]\nparameters = {{ {} = [{}, {}] }}\nmetric = {:?}\nscan_points = {}\n\
+                 iterations = {}\nband = {}\n",
+                spec.name,
+                spec.toml_literal(&Value::Number(lo)),
+                spec.toml_literal(&Value::Number(hi)),
+                o.metric,
+                o.scan_points,
+                o.iterations,
+                o.band
+            );
+        }
+        Self::parse(model, &text, name)
+    }
+
     /// Every grid point (cartesian product of the axes, the last axis fastest).
     pub fn points(&self) -> Vec<Vec<Value>> {
         self.axes.iter().fold(vec![Vec::new()], |acc, axis| {
@@ -195,13 +245,26 @@ impl<M: StudyModel> Study<M> {
         })
     }
 
-    /// Parameters at a grid point (validated).
+    /// Parameters at a grid point (checked).
     pub fn params_at(&self, model: &M, point: &[Value]) -> Result<M::Params> {
         let mut params = self.base.clone();
         for (axis, value) in self.axes.iter().zip(point) {
-            model.set(&mut params, axis.spec.name, value)?;
+            let name = axis.spec.name;
+            model.set(&mut params, name, value, &format!("sweep.{name}"))?;
         }
-        model.validate(&params)?;
+        model.check(&params).map_err(|e| {
+            let at: Vec<String> = self
+                .axes
+                .iter()
+                .zip(point)
+                .map(|(a, v)| format!("{} = {}", a.spec.name, a.spec.user_text(v)))
+                .collect();
+            if at.is_empty() {
+                e
+            } else {
+                Error::input(format!("at {}: {e}", at.join(", ")))
+            }
+        })?;
         Ok(params)
     }
 
@@ -259,17 +322,44 @@ fn positive(key: &str, n: i64) -> Result<usize> {
     }
 }
 
+/// A study name that is a plain name, never a path (it names the default result directory).
+fn plain_name(name: &str) -> Result<String> {
+    let ok = !name.is_empty()
+        && name != "."
+        && name != ".."
+        && name
+            .chars()
+            .all(|c| c.is_alphanumeric() || matches!(c, '-' | '_' | '.' | '+'));
+    if ok {
+        Ok(name.to_string())
+    } else {
+        Err(Error::input(format!(
+            "name: '{}' is not allowed (need a plain name of letters, digits, '-', '_', '.', \
+             '+'; no paths)",
+            name.escape_debug()
+        )))
+    }
+}
+
 fn metrics<M: StudyModel>(model: &M, wanted: Option<Vec<String>>) -> Result<Vec<String>> {
     let known = model.metrics();
     let Some(wanted) = wanted else {
         return Ok(known.iter().map(|s| s.to_string()).collect());
     };
-    for m in &wanted {
+    if wanted.is_empty() {
+        return Err(Error::input(
+            "metrics: the list is empty (name at least one, or leave the key out for all)",
+        ));
+    }
+    for (k, m) in wanted.iter().enumerate() {
         if !known.contains(&m.as_str()) {
             return Err(Error::input(format!(
                 "metrics: unknown metric '{m}' (known: {})",
                 known.join(", ")
             )));
+        }
+        if wanted[..k].contains(m) {
+            return Err(Error::input(format!("metrics: '{m}' is listed twice")));
         }
     }
     Ok(wanted)
@@ -278,41 +368,58 @@ fn metrics<M: StudyModel>(model: &M, wanted: Option<Vec<String>>) -> Result<Vec<
 /// Base parameters and their parsed values.
 type Base<P> = (P, Vec<(String, Value)>);
 
+/// The spec of a key, or an error naming the table.
+fn spec_of<M: StudyModel>(model: &M, table: &str, key: &str) -> Result<&'static ParamSpec> {
+    model
+        .spec(key)
+        .map_err(|e| Error::input(format!("{table}.{key}: {e}")))
+}
+
 fn base<M: StudyModel>(model: &M, table: toml::Table) -> Result<Base<M::Params>> {
     let mut params = model.defaults();
-    let mut values = Vec::new();
-    for (name, raw) in &table {
-        let value = model
-            .spec(name)
-            .and_then(|s| s.parse(raw))
-            .map_err(|e| Error::input(format!("base.{e}")))?;
-        model
-            .set(&mut params, name, &value)
-            .map_err(|e| Error::input(format!("base.{name}: {e}")))?;
-        values.push((name.clone(), value));
+    let mut values: Vec<(String, Value)> = Vec::new();
+    for (key, raw) in &table {
+        let name = spec_of(model, "base", key)?.name;
+        if values.iter().any(|(k, _)| k == name) {
+            return Err(Error::input(format!(
+                "base.{key}: {name} is already set (under another of its names)"
+            )));
+        }
+        let value = model.set_from(&mut params, name, raw, &format!("base.{key}"))?;
+        values.push((name.to_string(), value));
     }
+    values.sort_by(|a, b| a.0.cmp(&b.0));
     model
-        .validate(&params)
+        .check(&params)
         .map_err(|e| Error::input(format!("base: {e}")))?;
     Ok((params, values))
 }
 
 fn axes<M: StudyModel>(model: &M, table: toml::Table) -> Result<Vec<Axis>> {
-    table
-        .iter()
-        .map(|(name, raw)| {
-            let spec = model
-                .spec(name)
-                .map_err(|e| Error::input(format!("sweep.{e}")))?;
-            axis(spec, raw).map_err(|e| Error::input(format!("sweep.{e}")))
-        })
-        .collect()
+    let mut axes: Vec<Axis> = Vec::new();
+    for (key, raw) in &table {
+        let spec = spec_of(model, "sweep", key)?;
+        if axes.iter().any(|a| a.spec.name == spec.name) {
+            return Err(Error::input(format!(
+                "sweep.{key}: {} is already swept (under another of its names)",
+                spec.name
+            )));
+        }
+        axes.push(axis(spec, raw).map_err(|e| Error::input(format!("sweep.{e}")))?);
+    }
+    Ok(axes)
 }
 
 fn axis(spec: &'static ParamSpec, raw: &toml::Value) -> Result<Axis> {
     let name = spec.name;
     let (values, log) = match raw {
-        toml::Value::Array(items) => (items.iter().map(|v| spec.parse(v)).collect::<Result<Vec<_>>>()?, false),
+        toml::Value::Array(items) => (
+            items
+                .iter()
+                .map(|v| spec.parse(v).map_err(|r| Error::input(format!("{name}: {r}"))))
+                .collect::<Result<Vec<_>>>()?,
+            false,
+        ),
         toml::Value::Table(t) if t.len() == 1 && (t.contains_key("range") || t.contains_key("log")) => {
             let log = t.contains_key("log");
             let bounds = t.values().next().expect("one entry");
@@ -337,7 +444,10 @@ fn range(spec: &'static ParamSpec, bounds: &toml::Value, log: bool) -> Result<Ve
             "{name}: a range needs [low, high, count], got {bounds}"
         ))
     })?;
-    let number = |v: &toml::Value| match spec.parse(v)? {
+    let number = |v: &toml::Value| match spec
+        .parse(v)
+        .map_err(|r| Error::input(format!("{name}: {r}")))?
+    {
         Value::Number(x) => Ok(x),
         Value::Text(t) => Err(Error::input(format!(
             "{name}: '{t}' cannot be a range bound"
@@ -355,7 +465,9 @@ fn range(spec: &'static ParamSpec, bounds: &toml::Value, log: bool) -> Result<Ve
         })? as usize;
     if log && !(lo > 0.0 && hi > 0.0) {
         return Err(Error::input(format!(
-            "{name}: a log range needs positive bounds (got {lo}, {hi} in SI)"
+            "{name}: a log range needs positive bounds (got {}, {})",
+            spec.user_text(&Value::Number(lo)),
+            spec.user_text(&Value::Number(hi))
         )));
     }
     let at = |k: usize| {
@@ -400,9 +512,7 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
     };
     let mut free = Vec::new();
     for (name, bounds) in &raw.parameters {
-        let spec = model
-            .spec(name)
-            .map_err(|e| at(Error::input(format!("parameters.{e}"))))?;
+        let spec = spec_of(model, "parameters", name).map_err(at)?;
         let pair = bounds.as_array().filter(|a| a.len() == 2).ok_or_else(|| {
             at(Error::input(format!(
                 "parameters.{name}: need [low, high], got {bounds}"
@@ -413,12 +523,14 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
             Ok(Value::Text(t)) => Err(at(Error::input(format!(
                 "parameters.{name}: '{t}' is not a number"
             )))),
-            Err(e) => Err(at(Error::input(format!("parameters.{e}")))),
+            Err(r) => Err(at(Error::input(format!("parameters.{name}: {r}")))),
         };
         let (lo, hi) = (bound(&pair[0])?, bound(&pair[1])?);
         if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
             return Err(at(Error::input(format!(
-                "parameters.{name}: need low < high (got {lo}, {hi} in SI)"
+                "parameters.{name}: need low < high (got {}, {})",
+                spec.user_text(&Value::Number(lo)),
+                spec.user_text(&Value::Number(hi))
             ))));
         }
         free.push((spec, lo, hi));

@@ -3,9 +3,9 @@
 
 use serde_json::json;
 
+use super::super::params::Given;
 use super::{count, counts, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
 use crate::models::bed::study::BedModel;
-use crate::study::model::StudyModel;
 use crate::Result;
 
 /// `magopt bench bed`: one full cycle per (N, neighbour method, far-field interval, threads).
@@ -59,16 +59,14 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
 }
 
 /// One cycle with these settings on a pool of `threads`: printed, and returned as JSON.
-fn row(model: &BedModel, settings: &[(&str, String)], threads: usize) -> Result<serde_json::Value> {
-    let mut params = model.defaults();
-    for (name, value) in settings {
-        let v = model
-            .spec(name)?
-            .parse(&toml::Value::String(value.clone()))?;
-        model.set(&mut params, name, &v)?;
-    }
+fn row(
+    model: &BedModel,
+    settings: &[(&'static str, String)],
+    threads: usize,
+) -> Result<serde_json::Value> {
+    let given: Vec<Given> = settings.iter().map(|(n, t)| Given::new(n, t)).collect();
+    let (mut params, _) = super::super::params::setup(model, &given)?;
     params.snapshots = false;
-    model.validate(&params)?;
     reset_peak_rss();
     let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
     let n = params.particle_count();
@@ -94,7 +92,7 @@ fn row(model: &BedModel, settings: &[(&str, String)], threads: usize) -> Result<
         "particles": n,
         "neighbors": method,
         "far_field_interval": k,
-        "list_radius_D": params.list_radius,
+        "list_radius_D": params.list_radius.diameters(params.reference_diameter()),
         "time_step_factor": params.time_step_factor,
         "threads": threads,
         "steps": o.steps,

@@ -8,9 +8,12 @@ use std::sync::{Arc, Mutex, OnceLock};
 use super::dem::{self, Packing};
 use super::{run_ensemble, AlignOutcome, AlignParams, ModelKind, PressureMode, Status};
 use crate::materials::MaterialDb;
-use crate::study::model::{ParamKind as K, ParamSpec, RunResult, StudyModel, Value};
+use crate::study::model::{
+    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
+};
+use crate::study::param::Bounds;
 use crate::units::{si_per_unit, Dimension as D};
-use crate::{Error, Result};
+use crate::{choice_param, number_param, Result};
 
 /// Parameters of one `align` run as studies set them.
 #[derive(Debug, Clone)]
@@ -33,79 +36,149 @@ pub struct AlignModel {
     packings: Mutex<HashMap<String, SharedPacking>>,
 }
 
-const PARAMETERS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "material",
-        kind: K::Name,
-    },
-    ParamSpec {
-        name: "model",
-        kind: K::Choice(&["dem", "ensemble"]),
-    },
-    ParamSpec {
-        name: "field",
-        kind: K::Quantity {
-            dim: D::MagneticField,
-            unit: "kOe",
+type AlignParam = Param<AlignModel, AlignSetup>;
+
+/// Every `align` parameter, declared once (study key, CLI flag, kind, range, doc, storage).
+static PARAMETERS: &[AlignParam] = &[
+    Param {
+        spec: ParamSpec::new(
+            "material",
+            K::Name,
+            "Material name (see `magopt materials`)",
+        ),
+        get: |s| Some(Value::Text(s.params.material.name.clone())),
+        set: |m, s, v| {
+            s.params.material = m
+                .materials
+                .get(v.as_text())
+                .map_err(|e| e.to_string())?
+                .clone();
+            Ok(())
         },
     },
-    ParamSpec {
-        name: "pressure",
-        kind: K::Quantity {
-            dim: D::Pressure,
-            unit: "atm",
+    choice_param!(
+        "model",
+        "Model: dem (contacts, friction, pressure) or ensemble (non-interacting, milliseconds)",
+        model,
+        [("dem", ModelKind::Dem), ("ensemble", ModelKind::Ensemble)]
+    ),
+    number_param!(
+        ParamSpec::quantity("field", D::MagneticField, "kOe", "Applied field H along +z")
+            .within(Bounds::NON_NEGATIVE),
+        params.field
+    ),
+    number_param!(
+        ParamSpec::quantity("pressure", D::Pressure, "atm", "Punch pressure P")
+            .within(Bounds::NON_NEGATIVE),
+        params.pressure
+    ),
+    choice_param!(
+        "pressure_mode",
+        "How P is applied: exposed-layer (π R² P on every particle with nothing above it) or \
+         source-layer (the source's rule: centres above 0.9 z_max)",
+        params.pressure_mode,
+        [
+            ("exposed-layer", PressureMode::ExposedLayer),
+            ("source-layer", PressureMode::SourceLayer)
+        ]
+    ),
+    Param {
+        spec: ParamSpec::new(
+            "friction",
+            K::Number,
+            "Coulomb friction coefficient μ between particles (also with the walls unless \
+             wall_friction is set)",
+        )
+        .within(Bounds::NON_NEGATIVE),
+        get: |s| Some(Value::Number(s.params.friction)),
+        set: |_, s, v| {
+            s.params.friction = v.as_number();
+            if !s.wall_friction_set {
+                s.params.wall_friction = s.params.friction;
+            }
+            Ok(())
         },
     },
-    ParamSpec {
-        name: "pressure_mode",
-        kind: K::Choice(&["exposed-layer", "source-layer"]),
-    },
-    ParamSpec {
-        name: "friction",
-        kind: K::Number,
-    },
-    ParamSpec {
-        name: "wall_friction",
-        kind: K::Number,
-    },
-    ParamSpec {
-        name: "particles",
-        kind: K::Count,
-    },
-    ParamSpec {
-        name: "diameter",
-        kind: K::Quantity {
-            dim: D::Length,
-            unit: "um",
+    Param {
+        spec: ParamSpec::new(
+            "wall_friction",
+            K::Number,
+            "Friction coefficient between particles and die walls",
+        )
+        .within(Bounds::NON_NEGATIVE)
+        .derived("same as friction"),
+        get: |s| {
+            s.wall_friction_set
+                .then_some(Value::Number(s.params.wall_friction))
+        },
+        set: |_, s, v| {
+            s.params.wall_friction = v.as_number();
+            s.wall_friction_set = true;
+            Ok(())
         },
     },
-    ParamSpec {
-        name: "diameter_sigma",
-        kind: K::Number,
-    },
-    ParamSpec {
-        name: "damping",
-        kind: K::Number,
-    },
-    ParamSpec {
-        name: "target",
-        kind: K::Number,
-    },
-    ParamSpec {
-        name: "max_time",
-        kind: K::Quantity {
-            dim: D::Time,
-            unit: "s",
-        },
-    },
-    ParamSpec {
-        name: "rotation_step",
-        kind: K::Number,
-    },
-    ParamSpec {
-        name: "friction_regularization",
-        kind: K::Number,
-    },
+    number_param!(
+        ParamSpec::new("particles", K::Count, "Number of particles N"),
+        params.particles
+    ),
+    number_param!(
+        ParamSpec::quantity("diameter", D::Length, "um", "Mean particle diameter D_av")
+            .within(Bounds::POSITIVE),
+        params.mean_diameter
+    ),
+    number_param!(
+        ParamSpec::new(
+            "diameter_sigma",
+            K::Number,
+            "σ of ln D of the log-normal particle sizes"
+        )
+        .within(Bounds::FRACTION),
+        params.diameter_sigma
+    ),
+    number_param!(
+        ParamSpec::quantity(
+            "damping",
+            D::Damping,
+            "N*s/m",
+            "Translational and rotational damping γ = γ*"
+        )
+        .within(Bounds::POSITIVE),
+        params.damping
+    ),
+    number_param!(
+        ParamSpec::new("target", K::Number, "Target alignment degree x of τ_x")
+            .within(Bounds::UNIT_OPEN),
+        params.target
+    ),
+    number_param!(
+        ParamSpec::quantity(
+            "max_time",
+            D::Time,
+            "s",
+            "Time limit of the alignment stage (a run not at the target by then is not reached)"
+        )
+        .within(Bounds::POSITIVE),
+        params.max_time
+    ),
+    number_param!(
+        ParamSpec::quantity(
+            "rotation_step",
+            D::Angle,
+            "rad",
+            "Rotation of the fastest particle per step (sets the time step)"
+        )
+        .within(Bounds::above_to(0.0, 0.5)),
+        params.numerics.rotation_step
+    ),
+    number_param!(
+        ParamSpec::new(
+            "friction_regularization",
+            K::Number,
+            "Friction regularization v_ε as a fraction of the fastest magnetic surface speed"
+        )
+        .within(Bounds::above_to(0.0, 1.0)),
+        params.numerics.friction_regularization
+    ),
 ];
 
 const METRICS: &[&str] = &[
@@ -176,7 +249,7 @@ impl StudyModel for AlignModel {
         "align"
     }
 
-    fn parameters(&self) -> &'static [ParamSpec] {
+    fn parameters(&self) -> &'static [AlignParam] {
         PARAMETERS
     }
 
@@ -198,66 +271,19 @@ impl StudyModel for AlignModel {
         }
     }
 
-    fn set(&self, setup: &mut AlignSetup, name: &str, value: &Value) -> Result<()> {
-        let p = &mut setup.params;
-        match name {
-            "material" => p.material = self.materials.get(value.as_text())?.clone(),
-            "model" => {
-                setup.model = if value.as_text() == "ensemble" {
-                    ModelKind::Ensemble
-                } else {
-                    ModelKind::Dem
-                }
-            }
-            "field" => p.field = value.as_number(),
-            "pressure" => p.pressure = value.as_number(),
-            "pressure_mode" => {
-                p.pressure_mode = if value.as_text() == "source-layer" {
-                    PressureMode::SourceLayer
-                } else {
-                    PressureMode::ExposedLayer
-                }
-            }
-            "friction" => {
-                p.friction = value.as_number();
-                if !setup.wall_friction_set {
-                    p.wall_friction = p.friction;
-                }
-            }
-            "wall_friction" => {
-                p.wall_friction = value.as_number();
-                setup.wall_friction_set = true;
-            }
-            "particles" => p.particles = value.as_number() as usize,
-            "diameter" => p.mean_diameter = value.as_number(),
-            "diameter_sigma" => p.diameter_sigma = value.as_number(),
-            "damping" => p.damping = value.as_number(),
-            "target" => p.target = value.as_number(),
-            "max_time" => p.max_time = value.as_number(),
-            "rotation_step" => p.numerics.rotation_step = value.as_number(),
-            "friction_regularization" => p.numerics.friction_regularization = value.as_number(),
-            other => {
-                return Err(self
-                    .spec(other)
-                    .err()
-                    .unwrap_or_else(|| Error::input(other.to_string())))
-            }
-        }
-        Ok(())
-    }
-
     fn validate(&self, setup: &AlignSetup) -> Result<()> {
         setup.params.validate()
     }
 
-    fn run(&self, setup: &AlignSetup, seed: u64) -> RunResult {
+    fn run(&self, setup: &AlignSetup, seed: u64, _: &RunContext) -> Result<RunResult> {
         let o = self.outcome(setup, seed);
-        RunResult {
-            status: o.status.label().to_string(),
-            reason: match &o.status {
-                Status::Failed(r) => r.clone(),
-                _ => String::new(),
+        Ok(RunResult {
+            status: match &o.status {
+                Status::Reached => RunStatus::Ok,
+                Status::NotReached => RunStatus::NotReached,
+                Status::Failed(r) => RunStatus::Failed(r.clone()),
             },
+            notes: Vec::new(),
             metrics: vec![
                 ("alignment_time_s".into(), o.alignment_time_s),
                 ("alignment_time_90_s".into(), o.alignment_time_90_s),
@@ -281,6 +307,6 @@ impl StudyModel for AlignModel {
             ],
             series: vec![("alignment".into(), o.series)],
             wall_time_s: o.wall_time_s,
-        }
+        })
     }
 }

@@ -96,9 +96,12 @@ impl ForceField {
         let pairs = match params.neighbors {
             Neighbors::Exact => Pairs::All,
             kind => {
-                let (rc, rv) = (params.cutoff * d1, params.list_radius * d1);
+                let (rc, rv) = (
+                    params.cutoff.diameters(d1) * d1,
+                    params.list_radius.diameters(d1) * d1,
+                );
                 let every_step = kind == Neighbors::Cells;
-                let rs = params.near_cutoff * d1;
+                let rs = params.near_cutoff.diameters(d1) * d1;
                 Pairs::Cut {
                     list: NeighborList::new(if every_step { 0.0 } else { rv - rc }),
                     radii: vec![0.5 * rc; n],

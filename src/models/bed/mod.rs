@@ -146,22 +146,6 @@ impl BedOutcome {
         }
     }
 
-    /// The failure, else the warnings joined (the `reason` of a run record).
-    pub fn reason(&self) -> String {
-        self.failure
-            .clone()
-            .unwrap_or_else(|| self.warnings.join("; "))
-    }
-
-    /// "ok" or "failed".
-    pub fn status(&self) -> &'static str {
-        if self.failure.is_some() {
-            "failed"
-        } else {
-            "ok"
-        }
-    }
-
     /// Every scalar metric by name (the `metrics` of the study model and `--json`).
     pub fn metrics(&self) -> Vec<(&'static str, Option<f64>)> {
         let finite = |x: f64| Some(x).filter(|x| x.is_finite());
@@ -269,8 +253,12 @@ mod tests {
         let collinear: Vec<_> = (0..5).map(|i| Vector2::new(f64::from(i), 0.0)).collect();
         out.record_structure(1, &collinear);
         assert!(out.structure[1].is_none());
-        assert_eq!(out.status(), "ok");
-        assert!(out.reason().contains("max-compression"), "{}", out.reason());
+        assert!(out.failure.is_none());
+        assert!(
+            out.warnings[0].contains("max-compression"),
+            "{:?}",
+            out.warnings
+        );
         let metrics = out.metrics();
         assert!(STRUCTURE_METRICS[1]
             .iter()

@@ -85,6 +85,25 @@ pub enum FrictionScheme {
     Explicit,
 }
 
+/// A distance given in units of D_1 (the usual way) or as an absolute length.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Reach {
+    /// Multiples of the reference diameter D_1.
+    Diameters(f64),
+    /// An absolute length, m.
+    Length(f64),
+}
+
+impl Reach {
+    /// The reach in units of D_1.
+    pub fn diameters(self, d1: f64) -> f64 {
+        match self {
+            Reach::Diameters(x) => x,
+            Reach::Length(l) => l / d1,
+        }
+    }
+}
+
 /// One species: diameter and number fraction (same material and thickness for all).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Species {
@@ -160,17 +179,17 @@ pub struct BedParams {
     /// Neighbour strategy.
     pub neighbors: Neighbors,
     /// Cut-off r_c in units of D_1 (7.13, the source's tuned value).
-    pub cutoff: f64,
+    pub cutoff: Reach,
     /// Verlet list radius r_v in units of D_1 (8; the source tuned 11.26 for its code). r_v
     /// changes no result, only the speed: the pairs inside r_c are the same and are summed in
     /// the same order. A thinner skin means a shorter pair loop and more frequent rebuilds;
     /// 8 D was the faster of 8, 9 and 11.26 at N = 10⁴ (README, bed benchmark).
-    pub list_radius: f64,
+    pub list_radius: Reach,
     /// Multiple time stepping: pairs beyond `near_cutoff` are summed every this many steps and
     /// held in between (1: every pair every step, the default; needs Verlet lists).
     pub far_field_interval: usize,
     /// Near cut-off r_s in units of D_1 of the multiple time stepping (3; 0 < r_s < r_c).
-    pub near_cutoff: f64,
+    pub near_cutoff: Reach,
     /// Δt = factor / ω_max, ω_max² the stiffest repulsion (pair or wall) at the closest
     /// approach over the lightest mass (0.2; the piston force at maximum compression is converged to < 1e-4 there, see tests/bed_physics.rs); the step is chosen anew every step.
     pub time_step_factor: f64,
@@ -227,10 +246,10 @@ impl BedParams {
             final_rest: 0.0,
             initial_speed: 1e-2,
             neighbors: Neighbors::Verlet,
-            cutoff: 7.13,
-            list_radius: 8.0,
+            cutoff: Reach::Diameters(7.13),
+            list_radius: Reach::Diameters(8.0),
             far_field_interval: 1,
-            near_cutoff: 3.0,
+            near_cutoff: Reach::Diameters(3.0),
             time_step_factor: 0.2,
             max_time_step: 1e-3,
             record_interval: None,

@@ -2,14 +2,21 @@
 //! named parameters with units, metrics and series.
 
 use super::damper::run_damper;
+use std::path::Path;
+
 use super::params::{
-    BedParams, Friction, FrictionScheme, Neighbors, Preset, Species, TiltOrder, WallLaw,
+    BedParams, Friction, FrictionScheme, Neighbors, Preset, Reach, Species, TiltOrder, WallLaw,
 };
 use super::protocol::run_cycle;
+use super::report::cycle_figures;
 use super::BedOutcome;
-use crate::study::model::{ParamKind as K, ParamSpec, RunResult, StudyModel, Value};
+use crate::output::{atomic, plot};
+use crate::study::model::{
+    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
+};
+use crate::study::param::Bounds;
 use crate::units::{Dimension as D, MU0};
-use crate::{Error, Result};
+use crate::{choice_param, number_param, optional_param, Error, Result};
 
 /// The `bed` or `damper` study model (same parameters; different protocol and defaults).
 #[derive(Debug, Clone, Copy)]
@@ -28,7 +35,35 @@ impl BedModel {
         Self { damper: true }
     }
 
-    /// One run as a full outcome (the CLI uses this for snapshots and JSON).
+    /// Simulated time of a run, s (progress is reported as a fraction of it).
+    fn simulated_time(&self, p: &BedParams) -> f64 {
+        let g = super::state::Geometry::of(p);
+        let stages = p.relaxation_time + p.settle_time;
+        if self.damper {
+            stages + 2.0 * p.damper_time
+        } else {
+            stages + 2.0 * (g.start_height - g.final_height) / p.piston_speed + p.final_rest
+        }
+    }
+
+    /// Snapshots (Parquet + extended XYZ), the damper fits and the cycle figures.
+    fn write_artifacts(&self, o: &BedOutcome, dir: &Path) -> Result<()> {
+        for s in &o.snapshots {
+            s.write(&dir.join("snapshots"), &s.label)?;
+        }
+        if let Some(fits) = &o.damper_fits {
+            atomic::write_json_atomic(&dir.join("damper_fits.json"), &fits.json())?;
+            plot::render_png(&dir.join("damper_fits.png"), &fits.figure())?;
+        }
+        if !self.damper && o.failure.is_none() {
+            for (stem, figure) in cycle_figures(o) {
+                plot::render_png(&dir.join(format!("{stem}.png")), &figure)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// One run as a full outcome (tests and benchmarks use this directly).
     pub fn outcome(&self, params: &BedParams, seed: u64, progress: &dyn Fn(f64)) -> BedOutcome {
         if self.damper {
             run_damper(params, seed, progress)
@@ -38,67 +73,412 @@ impl BedModel {
     }
 }
 
-macro_rules! spec {
-    ($name:literal, $kind:expr) => {
-        ParamSpec {
-            name: $name,
-            kind: $kind,
-        }
-    };
+type BedParam = Param<BedModel, BedParams>;
+
+/// A plain quantity with its display unit and range.
+const fn q(name: &'static str, dim: D, unit: &'static str, doc: &'static str) -> ParamSpec {
+    ParamSpec::quantity(name, dim, unit, doc)
 }
 
-const fn q(dim: D, unit: &'static str) -> K {
-    K::Quantity { dim, unit }
+/// A reach in units of D_1, or an absolute length.
+const fn reach(name: &'static str, doc: &'static str) -> ParamSpec {
+    ParamSpec::new(name, K::Multiple { of: "D1" }, doc).within(Bounds::POSITIVE)
 }
 
-const PARAMETERS: &[ParamSpec] = &[
-    spec!("preset", K::Choice(&["mono", "bidisperse"])),
-    spec!("particles", K::Count),
-    spec!("big_diameter", q(D::Length, "mm")),
-    spec!("mixing_ratio", K::Number),
-    spec!("aspect_ratio", K::Number),
-    spec!("species_file", K::Name),
-    spec!("width", q(D::Length, "m")),
-    spec!("height", q(D::Length, "m")),
-    spec!("gap", q(D::Length, "mm")),
-    spec!("thickness", q(D::Length, "mm")),
-    spec!("density", q(D::Density, "kg/m3")),
-    spec!("remanence", q(D::MagneticField, "T")),
-    spec!("static_friction", K::Number),
-    spec!("dynamic_friction", K::Number),
-    spec!("gravity", q(D::Acceleration, "m/s2")),
-    spec!("friction", K::Choice(&["none", "viscous", "dry", "both"])),
-    spec!("tilt_order", K::Choice(&["first", "second"])),
-    spec!("viscous_time", q(D::Time, "s")),
-    spec!("threshold_speed", q(D::Velocity, "m/s")),
-    spec!("friction_scheme", K::Choice(&["semi-implicit", "explicit"])),
-    spec!(
-        "wall_law",
-        K::Choice(&["empirical", "infinite-row", "finite-bar"])
+fn reach_value(r: Reach) -> Option<Value> {
+    Some(match r {
+        Reach::Diameters(x) => Value::Number(x),
+        Reach::Length(l) => Value::Text(format!("{l:?} m")),
+    })
+}
+
+fn reach_of(v: &Value) -> Reach {
+    match v {
+        Value::Number(x) => Reach::Diameters(*x),
+        Value::Text(t) => Reach::Length(
+            t.trim_end_matches(" m")
+                .parse()
+                .expect("the parser writes \"<metres> m\""),
+        ),
+    }
+}
+
+const POSITIVE: Bounds = Bounds::POSITIVE;
+const NON_NEGATIVE: Bounds = Bounds::NON_NEGATIVE;
+
+/// Every `bed` and `damper` parameter, declared once.
+static PARAMETERS: &[BedParam] = &[
+    choice_param!(
+        "preset",
+        "Geometry preset: mono (N = 368, D = 6 mm, W × H = 0.36 × 0.45 m) or bidisperse \
+         (N = 400, D1 = 5 mm, W = 66 D1, H = 0.445 m)",
+        preset,
+        [("mono", Preset::Mono), ("bidisperse", Preset::Bidisperse)]
     ),
-    spec!("wall_strength", K::Number),
-    spec!("piston_speed", q(D::Velocity, "mm/s")),
-    spec!("start_packing_fraction", K::Number),
-    spec!("max_packing_fraction", K::Number),
-    spec!("relaxation_time", q(D::Time, "s")),
-    spec!("piston_decay_time", q(D::Time, "s")),
-    spec!("settle_time", q(D::Time, "s")),
-    spec!("final_rest", q(D::Time, "s")),
-    spec!("initial_speed", q(D::Velocity, "m/s")),
-    spec!("neighbors", K::Choice(&["exact", "cells", "verlet"])),
-    spec!("cutoff", K::Number),
-    spec!("list_radius", K::Number),
-    spec!("far_field_interval", K::Count),
-    spec!("near_cutoff", K::Number),
-    spec!("time_step_factor", K::Number),
-    spec!("max_time_step", q(D::Time, "s")),
-    spec!("record_interval", q(D::Time, "s")),
-    spec!("min_distance_ratio", K::Number),
-    spec!("piston_mass", q(D::Mass, "g")),
-    spec!("damper_time", q(D::Time, "s")),
-    spec!("damper_record_interval", q(D::Time, "s")),
+    optional_param!(
+        ParamSpec::new(
+            "particles",
+            K::Count,
+            "Number of particles N; the cell scales by √(N/N_preset)"
+        )
+        .derived("368 mono, 400 bidisperse"),
+        particles
+    ),
+    optional_param!(
+        q(
+            "big_diameter",
+            D::Length,
+            "mm",
+            "Big (reference) diameter D1"
+        )
+        .within(POSITIVE)
+        .derived("6 mm mono, 5 mm bidisperse, or the first species"),
+        big_diameter
+    ),
+    number_param!(
+        ParamSpec::new(
+            "mixing_ratio",
+            K::Number,
+            "Mixing ratio R = number fraction of small particles (bidisperse)"
+        )
+        .within(Bounds::FRACTION),
+        mixing_ratio
+    ),
+    number_param!(
+        ParamSpec::new(
+            "aspect_ratio",
+            K::Number,
+            "Aspect ratio a = D_small/D_big (bidisperse)"
+        )
+        .within(Bounds::above_to(0.0, 1.0)),
+        aspect_ratio
+    ),
+    Param {
+        spec: ParamSpec::new(
+            "species_file",
+            K::Name,
+            "Species file (TOML: [[species]] tables with diameter = \"5mm\" and fraction = 0.6); \
+             the first species is the reference",
+        )
+        .aliases(&["species"])
+        .derived("the preset's species"),
+        get: |_| None,
+        set: |_, p, v| {
+            p.species = Some(load_species(v.as_text()).map_err(|e| e.to_string())?);
+            Ok(())
+        },
+    },
+    optional_param!(
+        q("width", D::Length, "m", "Cell width W at the preset's N")
+            .within(POSITIVE)
+            .derived("0.36 m mono, 66 D1 bidisperse"),
+        width
+    ),
+    optional_param!(
+        q("height", D::Length, "m", "Cell height H at the preset's N")
+            .within(POSITIVE)
+            .derived("0.45 m mono, 0.445 m bidisperse"),
+        height
+    ),
+    number_param!(
+        q("gap", D::Length, "mm", "Gap E between the glass plates").within(POSITIVE),
+        gap
+    ),
+    number_param!(
+        q("thickness", D::Length, "mm", "Disc thickness ε").within(POSITIVE),
+        thickness
+    ),
+    number_param!(
+        q("density", D::Density, "kg/m3", "Disc density ρ").within(POSITIVE),
+        density
+    ),
+    Param {
+        spec: q(
+            "remanence",
+            D::MagneticField,
+            "T",
+            "Remanence B_r of the discs (as μ0·H)",
+        )
+        .within(POSITIVE),
+        get: |p| Some(Value::Number(p.remanence / MU0)),
+        set: |_, p, v| {
+            p.remanence = MU0 * v.as_number();
+            Ok(())
+        },
+    },
+    number_param!(
+        ParamSpec::new(
+            "static_friction",
+            K::Number,
+            "Static friction coefficient μ_s with the plates"
+        )
+        .within(NON_NEGATIVE),
+        static_friction
+    ),
+    number_param!(
+        ParamSpec::new(
+            "dynamic_friction",
+            K::Number,
+            "Dynamic friction coefficient μ_d with the plates"
+        )
+        .within(NON_NEGATIVE),
+        dynamic_friction
+    ),
+    number_param!(
+        q(
+            "gravity",
+            D::Acceleration,
+            "m/s2",
+            "Gravity g along −y (0 switches it off)"
+        )
+        .within(NON_NEGATIVE),
+        gravity
+    ),
+    choice_param!(
+        "friction_model" aliases &["friction"],
+        "Friction with the plates: dry (B4–B5), viscous (B3, τ_v), both, none",
+        friction,
+        [
+            ("none", Friction::None),
+            ("viscous", Friction::Viscous),
+            ("dry", Friction::Dry),
+            ("both", Friction::Both)
+        ]
+    ),
+    choice_param!(
+        "tilt_order",
+        "Order of the tilt torque in the plate normal force (B4): first, second",
+        tilt_order,
+        [("first", TiltOrder::First), ("second", TiltOrder::Second)]
+    ),
+    number_param!(
+        q("viscous_time", D::Time, "s", "Viscous time τ_v = m/γ (B3)").within(POSITIVE),
+        viscous_time
+    ),
+    number_param!(
+        q(
+            "threshold_speed",
+            D::Velocity,
+            "m/s",
+            "Speed below which dry friction sticks (B5)"
+        )
+        .within(POSITIVE),
+        threshold_speed
+    ),
+    choice_param!(
+        "friction_scheme",
+        "Dry-friction integration: semi-implicit (stick rule + backward Euler) or explicit \
+         (forward-Euler B5, the small-step reference)",
+        friction_scheme,
+        [
+            ("semi-implicit", FrictionScheme::SemiImplicit),
+            ("explicit", FrictionScheme::Explicit)
+        ]
+    ),
+    choice_param!(
+        "wall_law",
+        "Wall law: empirical (B2, w^-3.5), infinite-row (w^-3), finite-bar",
+        wall_law,
+        [
+            ("empirical", WallLaw::Empirical),
+            ("infinite-row", WallLaw::InfiniteRow),
+            ("finite-bar", WallLaw::FiniteBar)
+        ]
+    ),
+    optional_param!(
+        ParamSpec::new(
+            "wall_strength",
+            K::Number,
+            "Wall strength M_w of the empirical law (B2), A·m^1.5"
+        )
+        .within(POSITIVE)
+        .derived("2 μ_1/√D_1"),
+        wall_strength
+    ),
+    number_param!(
+        q("piston_speed", D::Velocity, "mm/s", "Piston speed V_c")
+            .within(POSITIVE)
+            .aliases(&["velocity"]),
+        piston_speed
+    ),
+    number_param!(
+        ParamSpec::new(
+            "start_packing_fraction",
+            K::Number,
+            "Packing fraction at the start of compression (sets H0)"
+        )
+        .within(Bounds::UNIT_OPEN),
+        start_packing_fraction
+    ),
+    number_param!(
+        ParamSpec::new(
+            "max_packing_fraction",
+            K::Number,
+            "Packing fraction at maximum compression (sets H_f)"
+        )
+        .within(Bounds::UNIT_OPEN)
+        .aliases(&["packing_fraction"]),
+        max_packing_fraction
+    ),
+    number_param!(
+        q(
+            "relaxation_time",
+            D::Time,
+            "s",
+            "Damped relaxation before the piston is placed"
+        )
+        .within(NON_NEGATIVE),
+        relaxation_time
+    ),
+    number_param!(
+        q(
+            "piston_decay_time",
+            D::Time,
+            "s",
+            "Decay time of the piston's approach to the bed"
+        )
+        .within(POSITIVE),
+        piston_decay_time
+    ),
+    number_param!(
+        q(
+            "settle_time",
+            D::Time,
+            "s",
+            "Settling under the piston before compression"
+        )
+        .within(NON_NEGATIVE),
+        settle_time
+    ),
+    number_param!(
+        q("final_rest", D::Time, "s", "Rest after the expansion").within(NON_NEGATIVE),
+        final_rest
+    ),
+    number_param!(
+        q(
+            "initial_speed",
+            D::Velocity,
+            "m/s",
+            "Speed scale of the random initial velocities"
+        )
+        .within(NON_NEGATIVE),
+        initial_speed
+    ),
+    choice_param!(
+        "neighbors",
+        "Neighbour handling: exact (all pairs), cells (cut-off list every step), verlet (list \
+         radius r_v, cut-off r_c)",
+        neighbors,
+        [
+            ("exact", Neighbors::Exact),
+            ("cells", Neighbors::Cells),
+            ("verlet", Neighbors::Verlet)
+        ]
+    ),
+    Param {
+        spec: reach("cutoff", "Cut-off r_c of the pair sums"),
+        get: |p| reach_value(p.cutoff),
+        set: |_, p, v| {
+            p.cutoff = reach_of(v);
+            Ok(())
+        },
+    },
+    Param {
+        spec: reach(
+            "list_radius",
+            "Verlet list radius r_v (changes the speed, never the result; the source used 11.26)",
+        ),
+        get: |p| reach_value(p.list_radius),
+        set: |_, p, v| {
+            p.list_radius = reach_of(v);
+            Ok(())
+        },
+    },
+    number_param!(
+        ParamSpec::new(
+            "far_field_interval",
+            K::Count,
+            "Multiple time stepping: sum the pairs beyond near_cutoff every K steps and hold \
+             them in between (verlet only; 1: every pair every step)"
+        ),
+        far_field_interval
+    ),
+    Param {
+        spec: reach(
+            "near_cutoff",
+            "Near cut-off r_s of the multiple time stepping",
+        ),
+        get: |p| reach_value(p.near_cutoff),
+        set: |_, p, v| {
+            p.near_cutoff = reach_of(v);
+            Ok(())
+        },
+    },
+    number_param!(
+        ParamSpec::new(
+            "time_step_factor",
+            K::Number,
+            "Time-step factor: Δt = factor/ω_max at the closest approach"
+        )
+        .within(Bounds::above_to(0.0, 1.0)),
+        time_step_factor
+    ),
+    number_param!(
+        q(
+            "max_time_step",
+            D::Time,
+            "s",
+            "Upper bound on the time step"
+        )
+        .within(POSITIVE),
+        max_time_step
+    ),
+    optional_param!(
+        q(
+            "record_interval",
+            D::Time,
+            "s",
+            "Interval of the recorded series"
+        )
+        .within(POSITIVE)
+        .derived("0.05 s, × √(N/N_preset) above the preset's N"),
+        record_interval
+    ),
+    number_param!(
+        ParamSpec::new(
+            "min_distance_ratio",
+            K::Number,
+            "Flag a run when two discs come closer than this fraction of their mean diameter"
+        )
+        .within(Bounds::UNIT_OPEN),
+        min_distance_ratio
+    ),
+    number_param!(
+        q("piston_mass", D::Mass, "g", "Damper: piston mass").within(POSITIVE),
+        piston_mass
+    ),
+    number_param!(
+        q(
+            "damper_time",
+            D::Time,
+            "s",
+            "Damper: duration of the second free motion (the first ends at rest, within 20 \
+             times this)"
+        )
+        .within(POSITIVE),
+        damper_time
+    ),
+    number_param!(
+        q(
+            "damper_record_interval",
+            D::Time,
+            "s",
+            "Damper: sampling interval of z(t)"
+        )
+        .within(POSITIVE),
+        damper_record_interval
+    ),
 ];
-
 /// Every metric of [`BedOutcome::metrics`], in its order (the structure metrics per stage
 /// included), computed once.
 fn metric_names() -> &'static [&'static str] {
@@ -143,29 +523,24 @@ pub fn load_species(path: &str) -> Result<Vec<Species>> {
         .map_err(|e| Error::input(format!("species file '{path}': {e}")))?;
     let file: File = toml::from_str(&text)
         .map_err(|e| Error::input(format!("species file '{path}': {}", e.message())))?;
-    let diameter = ParamSpec {
-        name: "diameter",
-        kind: q(D::Length, "mm"),
-    };
+    if file.species.is_empty() {
+        return Err(Error::input(format!(
+            "species file '{path}': no [[species]] (need at least one)"
+        )));
+    }
+    let diameter = q("diameter", D::Length, "mm", "").within(POSITIVE);
     file.species
         .iter()
         .map(|e| {
             Ok(Species {
                 diameter: diameter
                     .parse(&e.diameter)
-                    .map_err(|err| Error::input(format!("species file '{path}': {err}")))?
+                    .map_err(|err| Error::input(format!("species file '{path}': diameter: {err}")))?
                     .as_number(),
                 fraction: e.fraction,
             })
         })
         .collect()
-}
-
-fn choice<T: Copy>(value: &Value, options: &[(&str, T)]) -> T {
-    options
-        .iter()
-        .find(|(n, _)| *n == value.as_text())
-        .map_or(options[0].1, |(_, t)| *t)
 }
 
 impl StudyModel for BedModel {
@@ -179,7 +554,7 @@ impl StudyModel for BedModel {
         }
     }
 
-    fn parameters(&self) -> &'static [ParamSpec] {
+    fn parameters(&self) -> &'static [BedParam] {
         PARAMETERS
     }
 
@@ -200,118 +575,24 @@ impl StudyModel for BedModel {
         p
     }
 
-    fn set(&self, p: &mut BedParams, name: &str, value: &Value) -> Result<()> {
-        let x = value.as_number();
-        match name {
-            "preset" => {
-                p.preset = choice(
-                    value,
-                    &[("mono", Preset::Mono), ("bidisperse", Preset::Bidisperse)],
-                )
-            }
-            "particles" => p.particles = Some(x as usize),
-            "big_diameter" => p.big_diameter = Some(x),
-            "mixing_ratio" => p.mixing_ratio = x,
-            "aspect_ratio" => p.aspect_ratio = x,
-            "species_file" => p.species = Some(load_species(value.as_text())?),
-            "width" => p.width = Some(x),
-            "height" => p.height = Some(x),
-            "gap" => p.gap = x,
-            "thickness" => p.thickness = x,
-            "density" => p.density = x,
-            "remanence" => p.remanence = MU0 * x,
-            "static_friction" => p.static_friction = x,
-            "dynamic_friction" => p.dynamic_friction = x,
-            "gravity" => p.gravity = x,
-            "friction" => {
-                p.friction = choice(
-                    value,
-                    &[
-                        ("none", Friction::None),
-                        ("viscous", Friction::Viscous),
-                        ("dry", Friction::Dry),
-                        ("both", Friction::Both),
-                    ],
-                )
-            }
-            "tilt_order" => {
-                p.tilt_order = choice(
-                    value,
-                    &[("first", TiltOrder::First), ("second", TiltOrder::Second)],
-                )
-            }
-            "viscous_time" => p.viscous_time = x,
-            "threshold_speed" => p.threshold_speed = x,
-            "friction_scheme" => {
-                p.friction_scheme = choice(
-                    value,
-                    &[
-                        ("semi-implicit", FrictionScheme::SemiImplicit),
-                        ("explicit", FrictionScheme::Explicit),
-                    ],
-                )
-            }
-            "wall_law" => {
-                p.wall_law = choice(
-                    value,
-                    &[
-                        ("empirical", WallLaw::Empirical),
-                        ("infinite-row", WallLaw::InfiniteRow),
-                        ("finite-bar", WallLaw::FiniteBar),
-                    ],
-                )
-            }
-            "wall_strength" => p.wall_strength = Some(x),
-            "piston_speed" => p.piston_speed = x,
-            "start_packing_fraction" => p.start_packing_fraction = x,
-            "max_packing_fraction" => p.max_packing_fraction = x,
-            "relaxation_time" => p.relaxation_time = x,
-            "piston_decay_time" => p.piston_decay_time = x,
-            "settle_time" => p.settle_time = x,
-            "final_rest" => p.final_rest = x,
-            "initial_speed" => p.initial_speed = x,
-            "neighbors" => {
-                p.neighbors = choice(
-                    value,
-                    &[
-                        ("exact", Neighbors::Exact),
-                        ("cells", Neighbors::Cells),
-                        ("verlet", Neighbors::Verlet),
-                    ],
-                )
-            }
-            "cutoff" => p.cutoff = x,
-            "list_radius" => p.list_radius = x,
-            "far_field_interval" => p.far_field_interval = x as usize,
-            "near_cutoff" => p.near_cutoff = x,
-            "time_step_factor" => p.time_step_factor = x,
-            "max_time_step" => p.max_time_step = x,
-            "record_interval" => p.record_interval = Some(x),
-            "min_distance_ratio" => p.min_distance_ratio = x,
-            "piston_mass" => p.piston_mass = x,
-            "damper_time" => p.damper_time = x,
-            "damper_record_interval" => p.damper_record_interval = x,
-            other => {
-                return Err(self
-                    .spec(other)
-                    .err()
-                    .unwrap_or_else(|| Error::input(other.to_string())))
-            }
-        }
-        Ok(())
-    }
-
     fn validate(&self, p: &BedParams) -> Result<()> {
         p.validate()
     }
 
-    fn run(&self, p: &BedParams, seed: u64) -> RunResult {
+    fn run(&self, p: &BedParams, seed: u64, context: &RunContext) -> Result<RunResult> {
         let mut p = p.clone();
-        p.snapshots = false;
-        let o = self.outcome(&p, seed, &|_| {});
-        RunResult {
-            status: o.status().to_string(),
-            reason: o.reason(),
+        p.snapshots = context.artifacts.is_some();
+        let total = self.simulated_time(&p);
+        let o = self.outcome(&p, seed, &|t| (context.progress)((t / total).min(1.0)));
+        if let Some(dir) = context.artifacts {
+            self.write_artifacts(&o, dir)?;
+        }
+        Ok(RunResult {
+            status: match &o.failure {
+                Some(reason) => RunStatus::Failed(reason.clone()),
+                None => RunStatus::Ok,
+            },
+            notes: o.warnings.clone(),
             metrics: o
                 .metrics()
                 .into_iter()
@@ -319,6 +600,6 @@ impl StudyModel for BedModel {
                 .collect(),
             series: o.series.0,
             wall_time_s: o.wall_time_s,
-        }
+        })
     }
 }

@@ -2,102 +2,436 @@
 
 use nalgebra::Vector3;
 
-use super::params::{BlastParams, DragLaw, Integrator, Interactions};
-use super::{run, BlastOutcome};
-use crate::study::model::{ParamKind as K, ParamSpec, RunResult, StudyModel, Value};
-use crate::units::{Dimension as D, MU0};
-use crate::{Error, Result};
+use super::params::{BlastParams, DragLaw, Integrator, Interactions, MAX_SAMPLES};
+use super::{run, snapshot, BlastOutcome};
+use crate::study::model::{
+    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
+};
+use crate::study::param::Bounds;
+use crate::units::{parse_quantity, Dimension as D, MU0};
+use crate::{choice_param, number_param, Error, Result};
 
 /// The `blast` study model.
 #[derive(Debug, Default)]
 pub struct BlastModel;
 
-const fn q(name: &'static str, dim: D, unit: &'static str) -> ParamSpec {
-    ParamSpec {
-        name,
-        kind: K::Quantity { dim, unit },
-    }
+type BlastParam = Param<BlastModel, BlastParams>;
+
+const fn q(name: &'static str, dim: D, unit: &'static str, doc: &'static str) -> ParamSpec {
+    ParamSpec::quantity(name, dim, unit, doc)
 }
 
-const fn num(name: &'static str) -> ParamSpec {
-    ParamSpec {
-        name,
-        kind: K::Number,
-    }
+const fn num(name: &'static str, doc: &'static str) -> ParamSpec {
+    ParamSpec::new(name, K::Number, doc)
 }
 
-const PARAMETERS: &[ParamSpec] = &[
-    q("field", D::MagneticField, "T"),
-    ParamSpec {
-        name: "field_direction",
-        kind: K::Name,
+const POSITIVE: Bounds = Bounds::POSITIVE;
+const NON_NEGATIVE: Bounds = Bounds::NON_NEGATIVE;
+
+/// Every `blast` parameter, declared once.
+static PARAMETERS: &[BlastParam] = &[
+    Param {
+        // B is entered as a field in tesla (μ0 H) and stored as B.
+        spec: q(
+            "field",
+            D::MagneticField,
+            "T",
+            "Magnetic flux density |B| (as μ0·H)",
+        ),
+        get: |p| Some(Value::Number(p.field_strength / MU0)),
+        set: |_, p, v| {
+            p.field_strength = MU0 * v.as_number();
+            Ok(())
+        },
     },
-    q("electric_field", D::ElectricField, "V/m"),
-    ParamSpec {
-        name: "electric_direction",
-        kind: K::Name,
+    Param {
+        spec: ParamSpec::new(
+            "field_direction",
+            K::Name,
+            "Direction of B: x, y, z, -x, … or a vector \"a,b,c\"",
+        ),
+        get: |p| Some(Value::Text(direction_text(&p.field_direction))),
+        set: |_, p, v| {
+            p.field_direction = parse_direction(v.as_text())?;
+            Ok(())
+        },
     },
-    q("charge_per_mass", D::ChargePerMass, "C/kg"),
-    num("negative_fraction"),
-    q("energy", D::Energy, "kJ"),
-    ParamSpec {
-        name: "particles",
-        kind: K::Count,
+    number_param!(
+        q(
+            "electric_field",
+            D::ElectricField,
+            "V/m",
+            "Electric field strength E"
+        ),
+        electric_strength
+    ),
+    Param {
+        spec: ParamSpec::new(
+            "electric_direction",
+            K::Name,
+            "Direction of E: \"field\" (along B) or x, y, z, -x, … or \"a,b,c\"",
+        ),
+        get: |p| {
+            Some(Value::Text(
+                p.electric_direction
+                    .as_ref()
+                    .map_or("field".into(), direction_text),
+            ))
+        },
+        set: |_, p, v| {
+            p.electric_direction = match v.as_text().trim() {
+                "field" => None,
+                t => Some(parse_direction(t)?),
+            };
+            Ok(())
+        },
     },
-    q("radius", D::Length, "m"),
-    q("density", D::Density, "kg/m3"),
-    q("cloud_radius", D::Length, "m"),
-    q("air_density", D::Density, "kg/m3"),
-    q("air_viscosity", D::Viscosity, "Pa*s"),
-    ParamSpec {
-        name: "drag",
-        kind: K::Choice(&["quadratic", "chow", "stokes", "none"]),
+    number_param!(
+        q(
+            "charge_per_mass",
+            D::ChargePerMass,
+            "C/kg",
+            "Charge per mass q/m"
+        ),
+        charge_per_mass
+    ),
+    number_param!(
+        num(
+            "negative_fraction",
+            "Fraction of particles carrying the opposite charge sign"
+        )
+        .within(Bounds::FRACTION),
+        negative_fraction
+    ),
+    number_param!(
+        q("energy", D::Energy, "kJ", "Detonation energy W (C1)").within(POSITIVE),
+        energy
+    ),
+    number_param!(
+        ParamSpec::new("particles", K::Count, "Number of particles N"),
+        particles
+    ),
+    number_param!(
+        q("radius", D::Length, "m", "Particle radius R").within(POSITIVE),
+        radius
+    ),
+    number_param!(
+        q("density", D::Density, "kg/m3", "Particle density ρ").within(POSITIVE),
+        density
+    ),
+    number_param!(
+        q("cloud_radius", D::Length, "m", "Initial cloud radius R_0").within(POSITIVE),
+        cloud_radius
+    ),
+    number_param!(
+        q("air_density", D::Density, "kg/m3", "Air density ρ_a").within(NON_NEGATIVE),
+        air_density
+    ),
+    number_param!(
+        q("air_viscosity", D::Viscosity, "Pa*s", "Air viscosity μ_f").within(POSITIVE),
+        air_viscosity
+    ),
+    choice_param!(
+        "drag",
+        "Drag law (C3): quadratic (constant C_D), chow (C_D(Re)), stokes (6π μ_f R), none",
+        drag,
+        [
+            ("quadratic", DragLaw::Quadratic),
+            ("chow", DragLaw::Chow),
+            ("stokes", DragLaw::Stokes),
+            ("none", DragLaw::None)
+        ]
+    ),
+    number_param!(
+        num(
+            "drag_coefficient",
+            "Constant drag coefficient C_D of the quadratic law"
+        )
+        .within(NON_NEGATIVE),
+        drag_coefficient
+    ),
+    number_param!(
+        q("duration", D::Time, "s", "Duration of the run").within(POSITIVE),
+        duration
+    ),
+    number_param!(
+        ParamSpec::new(
+            "samples",
+            K::Count,
+            "Series samples over the duration (besides t = 0)"
+        )
+        .within(Bounds::closed(1.0, MAX_SAMPLES as f64)),
+        samples
+    ),
+    Param {
+        spec: ParamSpec::new(
+            "interactions",
+            K::Name,
+            "Interaction terms: none, all, or a list of contact, damping, friction, bonding, \
+             near-field, rotation, thermal-softening",
+        ),
+        get: |p| Some(Value::Text(p.interactions.label())),
+        set: |_, p, v| {
+            p.interactions = Interactions::parse(v.as_text())?;
+            Ok(())
+        },
     },
-    num("drag_coefficient"),
-    q("duration", D::Time, "s"),
-    ParamSpec {
-        name: "samples",
-        kind: K::Count,
+    choice_param!(
+        "integrator",
+        "Integrator: auto (boris, or trapezoidal with interactions), boris, euler (the \
+         source's forward Euler), trapezoidal (C9, C10)",
+        step.integrator,
+        [
+            ("auto", Integrator::Auto),
+            ("boris", Integrator::Boris),
+            ("euler", Integrator::Euler),
+            ("trapezoidal", Integrator::Trapezoidal)
+        ]
+    ),
+    number_param!(
+        q("dt", D::Time, "s", "Fixed time step of boris and euler").within(POSITIVE),
+        step.dt
+    ),
+    number_param!(
+        q(
+            "dt_initial",
+            D::Time,
+            "s",
+            "Initial time step Δt_0 of the trapezoidal scheme"
+        )
+        .within(POSITIVE),
+        step.dt_initial
+    ),
+    number_param!(
+        q(
+            "dt_max",
+            D::Time,
+            "s",
+            "Largest adaptive step Δt_max of the trapezoidal scheme (C10)"
+        )
+        .within(POSITIVE),
+        step.dt_max
+    ),
+    number_param!(
+        num(
+            "phi",
+            "Trapezoidal weight φ (C9): 0.5 trapezoid, 1 backward Euler"
+        )
+        .within(Bounds::FRACTION),
+        step.phi
+    ),
+    number_param!(
+        ParamSpec::new(
+            "iterations",
+            K::Count,
+            "Desired fixed-point iterations per step K_d (C10)"
+        ),
+        step.iterations
+    ),
+    number_param!(
+        num(
+            "tolerance",
+            "Relative tolerance TOL of the fixed-point iteration (C10)"
+        )
+        .within(POSITIVE),
+        step.tolerance
+    ),
+    number_param!(
+        q(
+            "contact_stiffness",
+            D::Pressure,
+            "Pa",
+            "Contact stiffness K_p0 (C4)"
+        )
+        .within(NON_NEGATIVE),
+        contact.stiffness
+    ),
+    number_param!(
+        num("contact_exponent", "Contact exponent p_p (C4)").within(POSITIVE),
+        contact.exponent
+    ),
+    number_param!(
+        q(
+            "temperature",
+            D::Temperature,
+            "K",
+            "Particle temperature Θ (C4)"
+        )
+        .within(POSITIVE),
+        contact.temperature
+    ),
+    number_param!(
+        q(
+            "reference_temperature",
+            D::Temperature,
+            "K",
+            "Reference temperature Θ* of the thermal softening (C4)"
+        )
+        .within(POSITIVE),
+        contact.reference_temperature
+    ),
+    number_param!(
+        num("softening_rate", "Softening rate a of K_p (C4)").within(NON_NEGATIVE),
+        contact.softening_rate
+    ),
+    number_param!(
+        q(
+            "stiffness_floor",
+            D::Pressure,
+            "Pa",
+            "Stiffness floor K_p^lim of the softening (C4)"
+        )
+        .within(NON_NEGATIVE),
+        contact.stiffness_floor
+    ),
+    number_param!(
+        num("contact_damping", "Contact damping c_cd, N·s/m³ (C5)").within(NON_NEGATIVE),
+        contact.damping
+    ),
+    number_param!(
+        num("friction_stiffness", "Stick stiffness K_f, N·s⁻¹·m⁻³ (C6)").within(NON_NEGATIVE),
+        contact.friction_stiffness
+    ),
+    number_param!(
+        num("static_friction", "Static friction coefficient μ_s (C6)").within(NON_NEGATIVE),
+        contact.static_friction
+    ),
+    number_param!(
+        num("dynamic_friction", "Dynamic friction coefficient μ_d (C6)").within(NON_NEGATIVE),
+        contact.dynamic_friction
+    ),
+    number_param!(
+        q(
+            "bond_stiffness",
+            D::Pressure,
+            "Pa",
+            "Bond stiffness K_nb (C7)"
+        )
+        .within(NON_NEGATIVE),
+        contact.bond_stiffness
+    ),
+    number_param!(
+        num("bond_exponent", "Bond exponent p_b (C7)").within(POSITIVE),
+        contact.bond_exponent
+    ),
+    number_param!(
+        num(
+            "bond_tangential",
+            "Tangential bond stiffness K_rb, N·s⁻¹·m⁻³ (C7)"
+        )
+        .within(NON_NEGATIVE),
+        contact.bond_tangential
+    ),
+    number_param!(
+        num(
+            "bond_strain",
+            "Bonding strain ε*: overlap δ/(R_i+R_j) at which a pair bonds (C7; not in the source)"
+        )
+        .within(POSITIVE),
+        contact.bond_strain
+    ),
+    number_param!(
+        num(
+            "near_field_attraction",
+            "Near-field attraction ᾱ1, N·m^β1/kg² (C8)"
+        )
+        .within(NON_NEGATIVE),
+        near_field.attraction
+    ),
+    number_param!(
+        num(
+            "near_field_attraction_exponent",
+            "Near-field attraction exponent β1 (C8)"
+        )
+        .within(NON_NEGATIVE),
+        near_field.attraction_exponent
+    ),
+    number_param!(
+        num(
+            "near_field_repulsion",
+            "Near-field repulsion ᾱ2, N·m^β2/kg² (C8)"
+        )
+        .within(NON_NEGATIVE),
+        near_field.repulsion
+    ),
+    number_param!(
+        num(
+            "near_field_repulsion_exponent",
+            "Near-field repulsion exponent β2 (C8)"
+        )
+        .within(NON_NEGATIVE),
+        near_field.repulsion_exponent
+    ),
+    number_param!(
+        q(
+            "near_field_cutoff",
+            D::Length,
+            "m",
+            "Near-field cut-off distance (0: exact sum over all pairs)"
+        )
+        .within(NON_NEGATIVE),
+        near_field.cutoff
+    ),
+    number_param!(
+        num(
+            "near_field_theta",
+            "Barnes–Hut opening angle θ of the near field (0: exact sum over all pairs; \
+             relative force error 8.5e-3 at 0.5, 6.3e-4 at 0.25)"
+        )
+        .within(NON_NEGATIVE),
+        near_field.theta
+    ),
+    number_param!(
+        num(
+            "target_aspect_ratio",
+            "Wanted aspect ratio of the shape_error metric"
+        )
+        .within(NON_NEGATIVE),
+        target_aspect_ratio
+    ),
+    Param {
+        spec: ParamSpec::new(
+            "snapshot_times",
+            K::Name,
+            "Snapshot times of a run with an output directory, comma-separated times (s, ms, \
+             us, min, h; bare number: s)",
+        )
+        .derived("start, middle and end"),
+        get: |p| {
+            p.snapshots.as_ref().map(|t| {
+                let texts: Vec<String> = t.iter().map(|x| format!("{x:?} s")).collect();
+                Value::Text(texts.join(","))
+            })
+        },
+        set: |_, p, v| {
+            let times = v
+                .as_text()
+                .split(',')
+                .map(|t| parse_quantity(t, D::Time, "s"))
+                .collect::<std::result::Result<Vec<f64>, String>>()?;
+            p.snapshots = Some(times);
+            Ok(())
+        },
     },
-    ParamSpec {
-        name: "interactions",
-        kind: K::Name,
-    },
-    ParamSpec {
-        name: "integrator",
-        kind: K::Choice(&["auto", "boris", "euler", "trapezoidal"]),
-    },
-    q("dt", D::Time, "s"),
-    q("dt_initial", D::Time, "s"),
-    q("dt_max", D::Time, "s"),
-    num("phi"),
-    ParamSpec {
-        name: "iterations",
-        kind: K::Count,
-    },
-    num("tolerance"),
-    q("contact_stiffness", D::Pressure, "Pa"),
-    num("contact_exponent"),
-    num("temperature"),
-    num("reference_temperature"),
-    num("softening_rate"),
-    q("stiffness_floor", D::Pressure, "Pa"),
-    num("contact_damping"),
-    num("friction_stiffness"),
-    num("static_friction"),
-    num("dynamic_friction"),
-    q("bond_stiffness", D::Pressure, "Pa"),
-    num("bond_exponent"),
-    num("bond_tangential"),
-    num("bond_strain"),
-    num("near_field_attraction"),
-    num("near_field_attraction_exponent"),
-    num("near_field_repulsion"),
-    num("near_field_repulsion_exponent"),
-    q("near_field_cutoff", D::Length, "m"),
-    num("near_field_theta"),
-    num("target_aspect_ratio"),
 ];
+
+/// A direction as `parse_direction` reads it back ("x", "-z" or "a,b,c").
+fn direction_text(v: &Vector3<f64>) -> String {
+    let axes = [
+        ("x", Vector3::x()),
+        ("y", Vector3::y()),
+        ("z", Vector3::z()),
+    ];
+    for (name, axis) in axes {
+        if *v == axis {
+            return name.into();
+        }
+        if *v == -axis {
+            return format!("-{name}");
+        }
+    }
+    format!("{:?},{:?},{:?}", v.x, v.y, v.z)
+}
 
 const METRICS: &[&str] = &[
     "semi_axis_along_B_m",
@@ -206,13 +540,11 @@ impl BlastModel {
             ));
         }
         RunResult {
-            status: if outcome.failure.is_some() {
-                "failed"
-            } else {
-                "ok"
-            }
-            .into(),
-            reason: outcome.failure.clone().unwrap_or_default(),
+            status: match &outcome.failure {
+                Some(reason) => RunStatus::Failed(reason.clone()),
+                None => RunStatus::Ok,
+            },
+            notes: Vec::new(),
             metrics: metrics
                 .into_iter()
                 .map(|(n, v)| (n.to_string(), v))
@@ -230,7 +562,7 @@ impl StudyModel for BlastModel {
         "blast"
     }
 
-    fn parameters(&self) -> &'static [ParamSpec] {
+    fn parameters(&self) -> &'static [BlastParam] {
         PARAMETERS
     }
 
@@ -255,103 +587,33 @@ impl StudyModel for BlastModel {
         BlastParams::source_example()
     }
 
-    fn set(&self, p: &mut BlastParams, name: &str, value: &Value) -> Result<()> {
-        let x = value.as_number();
-        let bad = |e: String| Error::input(format!("{name}: {e}"));
-        let (c, nf, s) = (&mut p.contact, &mut p.near_field, &mut p.step);
-        match name {
-            // B is entered as a field in tesla (μ0 H) and stored as B.
-            "field" => p.field_strength = MU0 * x,
-            "field_direction" => {
-                p.field_direction = parse_direction(value.as_text()).map_err(bad)?
-            }
-            "electric_field" => p.electric_strength = x,
-            "electric_direction" => {
-                p.electric_direction = match value.as_text().trim() {
-                    "field" => None,
-                    t => Some(parse_direction(t).map_err(bad)?),
-                }
-            }
-            "charge_per_mass" => p.charge_per_mass = x,
-            "negative_fraction" => p.negative_fraction = x,
-            "energy" => p.energy = x,
-            "particles" => p.particles = x as usize,
-            "radius" => p.radius = x,
-            "density" => p.density = x,
-            "cloud_radius" => p.cloud_radius = x,
-            "air_density" => p.air_density = x,
-            "air_viscosity" => p.air_viscosity = x,
-            "drag" => {
-                p.drag = match value.as_text() {
-                    "quadratic" => DragLaw::Quadratic,
-                    "stokes" => DragLaw::Stokes,
-                    "none" => DragLaw::None,
-                    _ => DragLaw::Chow,
-                }
-            }
-            "drag_coefficient" => p.drag_coefficient = x,
-            "duration" => p.duration = x,
-            "samples" => p.samples = x as usize,
-            "interactions" => p.interactions = Interactions::parse(value.as_text()).map_err(bad)?,
-            "integrator" => {
-                s.integrator = match value.as_text() {
-                    "boris" => Integrator::Boris,
-                    "euler" => Integrator::Euler,
-                    "trapezoidal" => Integrator::Trapezoidal,
-                    _ => Integrator::Auto,
-                }
-            }
-            "dt" => s.dt = x,
-            "dt_initial" => s.dt_initial = x,
-            "dt_max" => s.dt_max = x,
-            "phi" => s.phi = x,
-            "iterations" => s.iterations = x as usize,
-            "tolerance" => s.tolerance = x,
-            "contact_stiffness" => c.stiffness = x,
-            "contact_exponent" => c.exponent = x,
-            "temperature" => c.temperature = x,
-            "reference_temperature" => c.reference_temperature = x,
-            "softening_rate" => c.softening_rate = x,
-            "stiffness_floor" => c.stiffness_floor = x,
-            "contact_damping" => c.damping = x,
-            "friction_stiffness" => c.friction_stiffness = x,
-            "static_friction" => c.static_friction = x,
-            "dynamic_friction" => c.dynamic_friction = x,
-            "bond_stiffness" => c.bond_stiffness = x,
-            "bond_exponent" => c.bond_exponent = x,
-            "bond_tangential" => c.bond_tangential = x,
-            "bond_strain" => c.bond_strain = x,
-            "near_field_attraction" => nf.attraction = x,
-            "near_field_attraction_exponent" => nf.attraction_exponent = x,
-            "near_field_repulsion" => nf.repulsion = x,
-            "near_field_repulsion_exponent" => nf.repulsion_exponent = x,
-            "near_field_cutoff" => nf.cutoff = x,
-            "near_field_theta" => nf.theta = x,
-            "target_aspect_ratio" => p.target_aspect_ratio = x,
-            other => {
-                return Err(self
-                    .spec(other)
-                    .err()
-                    .unwrap_or_else(|| Error::input(other)))
-            }
-        }
-        Ok(())
-    }
-
     fn validate(&self, params: &BlastParams) -> Result<()> {
         params.validate()
     }
 
-    fn run(&self, params: &BlastParams, seed: u64) -> RunResult {
-        match run(params, seed, &[]) {
-            Ok(outcome) => Self::result(params, &outcome),
+    fn run(&self, params: &BlastParams, seed: u64, context: &RunContext) -> Result<RunResult> {
+        let times = match context.artifacts {
+            Some(_) => params.snapshot_times(),
+            None => Vec::new(),
+        };
+        Ok(match run(params, seed, &times) {
+            Ok(outcome) => {
+                if let Some(dir) = context.artifacts {
+                    let snaps = dir.join("snapshots");
+                    std::fs::create_dir_all(&snaps).map_err(|e| Error::io(&snaps, e))?;
+                    for (k, (t, cloud)) in outcome.snapshots.iter().enumerate() {
+                        snapshot::write(&snaps, k, *t, cloud, &params.field_axis())?;
+                    }
+                }
+                Self::result(params, &outcome)
+            }
             Err(e) => RunResult {
-                status: "failed".into(),
-                reason: e.to_string(),
+                status: RunStatus::Failed(e.to_string()),
+                notes: Vec::new(),
                 metrics: METRICS.iter().map(|m| (m.to_string(), None)).collect(),
                 series: Vec::new(),
                 wall_time_s: 0.0,
             },
-        }
+        })
     }
 }
