@@ -1,6 +1,7 @@
 //! magopt: simulation-based optimization of magnetic particle processes.
 //!
-//! See `ARCHITECTURE.md` for the map of modules and `../shared/spec/` for the physics contract.
+//! See `ARCHITECTURE.md` for the map of modules and `docs/` for the physics contract (the
+//! equations behind the (A…), (B…), (C…) tags cited in comments).
 #![warn(missing_docs)]
 
 pub mod analysis;
