@@ -108,30 +108,6 @@ pub fn solve(
     stats
 }
 
-/// Fraction of friction-loaded contacts (F_n > 0, μ > 0) whose slip speed is below 3 v_ε: there
-/// the regularized law acts as a viscous creep law and the rotation rate depends on v_ε. Near 1
-/// the run is in the creep regime (spec align.md, "Observables"). NaN without loaded contacts.
-pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
-    let (mut loaded, mut sticking) = (0usize, 0usize);
-    for (i, m) in motion.iter().enumerate() {
-        for c in stage.contacts.of(i) {
-            if stage.law.friction_of(c) > 0.0 && c.overlap > 0.0 {
-                let partner = if c.partner == WALL {
-                    Vector3::zeros()
-                } else {
-                    let j = c.partner as usize;
-                    motion[j].v - stage.radius[j] * motion[j].w.cross(&c.normal)
-                };
-                let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
-                let slip = rel - rel.dot(&c.normal) * c.normal;
-                loaded += 1;
-                sticking += usize::from(slip.norm() < 3.0 * stage.slip_scale);
-            }
-        }
-    }
-    sticking as f64 / loaded as f64
-}
-
 /// The Gauss–Seidel order: particles grouped by cubic cells of side ≥ the neighbour cut-off
 /// (2 r_max + skin, as in the neighbour list), cells grouped in 8 colours by the parity of their
 /// integer coordinates. Two cells of one colour are never adjacent, so the particles of one
