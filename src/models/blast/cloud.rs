@@ -5,13 +5,12 @@
 use nalgebra::Vector3;
 use rand::RngExt;
 
+// The packing check is a parameter check (`BlastParams::validate` runs it), so it lives in
+// params and the dependency runs one way, cloud → params; re-exported under its old path.
 use super::params::BlastParams;
+pub use super::params::{check_packing, MAX_VOLUME_FRACTION};
 use crate::rng::{run_stream, Purpose};
 use crate::{Error, Result};
-
-/// Highest volume fraction attempted: RSA of equal spheres jams near 0.384, and gets very slow
-/// well before; beyond this the packing is reported impossible.
-pub const MAX_VOLUME_FRACTION: f64 = 0.35;
 
 /// Failed RSA attempts in a row after which placement gives up.
 pub const MAX_ATTEMPTS: usize = 200_000;
@@ -86,24 +85,6 @@ impl Cloud {
 /// Centre of mass of equal particles (sequential sum: deterministic).
 pub fn centre_of_mass(positions: &[Vector3<f64>]) -> Vector3<f64> {
     positions.iter().sum::<Vector3<f64>>() / positions.len().max(1) as f64
-}
-
-/// Rejects a cloud that cannot hold its particles: centres must lie within R_0 − R and the
-/// volume fraction N R³/(R_0 − R)³ must stay below [`MAX_VOLUME_FRACTION`].
-pub fn check_packing(params: &BlastParams) -> Result<()> {
-    let room = params.cloud_radius - params.radius;
-    let fraction = params.particles as f64 * (params.radius / room).powi(3);
-    if room <= 0.0 || fraction.is_nan() || fraction > MAX_VOLUME_FRACTION {
-        return Err(Error::input(format!(
-            "cloud too small for its particles: {} spheres of radius {} m in a cloud of radius {} m \
-             (volume fraction {:.3}; need R < R_0 and N R³/(R_0 − R)³ ≤ {MAX_VOLUME_FRACTION})",
-            params.particles,
-            params.radius,
-            params.cloud_radius,
-            if room > 0.0 { fraction } else { f64::INFINITY }
-        )));
-    }
-    Ok(())
 }
 
 /// RSA with a cell grid of cell size 2R: each candidate is checked against the 27 cells around

@@ -12,6 +12,10 @@ pub const MAX_SAMPLES: usize = 100_000;
 /// Most time steps a run may need (duration over the longest allowed step).
 pub const MAX_STEPS: f64 = 1e9;
 
+/// Highest volume fraction attempted: RSA of equal spheres jams near 0.384, and gets very slow
+/// well before; beyond this the packing is reported impossible.
+pub const MAX_VOLUME_FRACTION: f64 = 0.35;
+
 /// Drag law (C3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DragLaw {
@@ -321,6 +325,24 @@ impl BlastParams {
                 self.interactions.label()
             )));
         }
-        super::cloud::check_packing(self)
+        check_packing(self)
     }
+}
+
+/// Rejects a cloud that cannot hold its particles: centres must lie within R_0 − R and the
+/// volume fraction N R³/(R_0 − R)³ must stay below [`MAX_VOLUME_FRACTION`].
+pub fn check_packing(params: &BlastParams) -> Result<()> {
+    let room = params.cloud_radius - params.radius;
+    let fraction = params.particles as f64 * (params.radius / room).powi(3);
+    if room <= 0.0 || fraction.is_nan() || fraction > MAX_VOLUME_FRACTION {
+        return Err(Error::input(format!(
+            "cloud too small for its particles: {} spheres of radius {} m in a cloud of radius {} m \
+             (volume fraction {:.3}; need R < R_0 and N R³/(R_0 − R)³ ≤ {MAX_VOLUME_FRACTION})",
+            params.particles,
+            params.radius,
+            params.cloud_radius,
+            if room > 0.0 { fraction } else { f64::INFINITY }
+        )));
+    }
+    Ok(())
 }

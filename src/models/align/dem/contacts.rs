@@ -197,21 +197,6 @@ impl ContactSet {
     pub fn max_overlap(&self) -> f64 {
         self.contacts.iter().map(|c| c.overlap).fold(0.0, f64::max)
     }
-
-    /// Number of touching pairs (each counted once) plus touching wall contacts.
-    pub fn touching(&self) -> usize {
-        let pairs = self
-            .contacts
-            .iter()
-            .filter(|c| c.overlap > 0.0 && c.partner != WALL)
-            .count();
-        let walls = self
-            .contacts
-            .iter()
-            .filter(|c| c.overlap > 0.0 && c.partner == WALL)
-            .count();
-        pairs / 2 + walls
-    }
 }
 
 /// Outward wall normals and centre-to-wall distances of a point in the container.

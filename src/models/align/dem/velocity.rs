@@ -17,8 +17,9 @@
 //! Armijo backtracking) with its neighbours held; sweeps repeat until no velocity moves by more
 //! than the tolerance. Warm-started from the previous stage, few sweeps are needed.
 
-use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use std::marker::PhantomData;
 
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
 
 use super::contacts::{Contact, ContactLaw, ContactSet, WALL};
@@ -77,7 +78,7 @@ pub fn solve(
     control: SolverControl,
 ) -> SolveStats {
     let mut stats = SolveStats::default();
-    let shared = SharedMotion(motion.as_mut_ptr(), motion.len());
+    let velocities = Velocities::new(motion);
     while stats.sweeps < control.max_sweeps {
         stats.sweeps += 1;
         let mut largest_change: f64 = 0.0;
@@ -85,9 +86,10 @@ pub fn solve(
             let sweep_cell = |cell: &Vec<u32>| {
                 let mut change: f64 = 0.0;
                 for &i in cell {
-                    // SAFETY: see `Schedule`: tasks of one colour write disjoint particles and
-                    // never read a particle another task of the same colour writes.
-                    unsafe { change = change.max(shared.relax(stage, i as usize)) };
+                    // SAFETY: the colouring invariant of `Schedule`: while this colour's cells
+                    // are relaxed concurrently, particle i and its listed partners are written
+                    // by this task alone (same cell) or by no task (other colours).
+                    unsafe { change = change.max(relax(stage, &velocities, i as usize)) };
                 }
                 change
             };
@@ -104,30 +106,6 @@ pub fn solve(
         }
     }
     stats
-}
-
-/// Fraction of friction-loaded contacts (F_n > 0, μ > 0) whose slip speed is below 3 v_ε: there
-/// the regularized law acts as a viscous creep law and the rotation rate depends on v_ε. Near 1
-/// the run is in the creep regime (spec align.md, "Observables"). NaN without loaded contacts.
-pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
-    let (mut loaded, mut sticking) = (0usize, 0usize);
-    for (i, m) in motion.iter().enumerate() {
-        for c in stage.contacts.of(i) {
-            if stage.law.friction_of(c) > 0.0 && c.overlap > 0.0 {
-                let partner = if c.partner == WALL {
-                    Vector3::zeros()
-                } else {
-                    let j = c.partner as usize;
-                    motion[j].v - stage.radius[j] * motion[j].w.cross(&c.normal)
-                };
-                let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
-                let slip = rel - rel.dot(&c.normal) * c.normal;
-                loaded += 1;
-                sticking += usize::from(slip.norm() < 3.0 * stage.slip_scale);
-            }
-        }
-    }
-    sticking as f64 / loaded as f64
 }
 
 /// The Gauss–Seidel order: particles grouped by cubic cells of side ≥ the neighbour cut-off
@@ -166,26 +144,79 @@ impl Schedule {
     }
 }
 
-/// Raw access to the velocity array for the coloured Gauss–Seidel sweep.
-#[derive(Clone, Copy)]
-struct SharedMotion(*mut Motion, usize);
+/// The velocity array shared by the tasks of one coloured sweep.
+///
+/// Tasks relax different cells of one colour at the same time, so several threads write into
+/// the array at once. No reference to the array (or to any element) is formed while they run:
+/// each access copies one element in or out through the raw pointer, so it suffices that no
+/// element is written by one thread while another thread reads or writes it. The colouring of
+/// `Schedule` guarantees exactly that: a particle and its listed partners lie in its own cell
+/// (relaxed by its own task, one particle after another) or in a cell of another colour (not
+/// relaxed during this colour's pass), never in another cell of the same colour.
+struct Velocities<'a> {
+    first: *mut Motion,
+    len: usize,
+    /// Holds the exclusive borrow of the array for the whole solve.
+    _array: PhantomData<&'a mut [Motion]>,
+}
 
-// SAFETY: only used under the colouring invariant of `Schedule` (no data races).
-unsafe impl Send for SharedMotion {}
-unsafe impl Sync for SharedMotion {}
+// SAFETY: the pointer targets an exclusively borrowed array of `Send + Sync` values;
+// concurrent element accesses are confined by the colouring invariant (see above).
+unsafe impl Send for Velocities<'_> {}
+unsafe impl Sync for Velocities<'_> {}
 
-impl SharedMotion {
-    /// Relaxes particle i and returns the size of its change.
+impl<'a> Velocities<'a> {
+    fn new(motion: &'a mut [Motion]) -> Self {
+        Self {
+            first: motion.as_mut_ptr(),
+            len: motion.len(),
+            _array: PhantomData,
+        }
+    }
+
+    /// A copy of particle j's motion.
     ///
     /// # Safety
-    /// No other thread may write particle i or any particle in its contact list meanwhile.
-    unsafe fn relax(self, stage: &Stage, i: usize) -> f64 {
-        let motion = std::slice::from_raw_parts(self.0, self.1);
-        let old = motion[i];
-        let new = solve_particle(stage, motion, i);
-        *self.0.add(i) = new;
-        (new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm()
+    /// No other thread may write particle j meanwhile.
+    unsafe fn read(&self, j: usize) -> Motion {
+        assert!(j < self.len, "particle {j} of {}", self.len);
+        // SAFETY: in bounds; no concurrent write (the caller's contract).
+        unsafe { self.first.add(j).read() }
     }
+
+    /// Stores particle i's motion.
+    ///
+    /// # Safety
+    /// No other thread may read or write particle i meanwhile.
+    unsafe fn write(&self, i: usize, motion: Motion) {
+        assert!(i < self.len, "particle {i} of {}", self.len);
+        // SAFETY: in bounds; no concurrent access (the caller's contract).
+        unsafe { self.first.add(i).write(motion) }
+    }
+}
+
+/// Relaxes particle i and returns the size of its change.
+///
+/// # Safety
+/// No other thread may write particle i or any of its listed partners, nor read particle i,
+/// meanwhile.
+unsafe fn relax(stage: &Stage, velocities: &Velocities, i: usize) -> f64 {
+    // SAFETY: particle i is this task's alone (the caller's contract).
+    let old = unsafe { velocities.read(i) };
+    let partners = stage.contacts.of(i).iter().map(|c| {
+        if c.partner == WALL {
+            Vector3::zeros()
+        } else {
+            let j = c.partner as usize;
+            // SAFETY: j is a listed partner of i (the caller's contract).
+            let m = unsafe { velocities.read(j) };
+            m.v - stage.radius[j] * m.w.cross(&c.normal)
+        }
+    });
+    let new = solve_particle(stage, i, old, partners);
+    // SAFETY: as for the read of `old`.
+    unsafe { velocities.write(i, new) };
+    (new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm()
 }
 
 /// The local problem of particle i with every other particle's motion held fixed.
@@ -294,32 +325,31 @@ where
     }
 }
 
-/// Damped Newton on particle i's local problem, started at its current motion.
-fn solve_particle(stage: &Stage, motion: &[Motion], i: usize) -> Motion {
-    let contacts = stage.contacts.of(i);
+/// Damped Newton on particle i's local problem, started at `start`, with the surface velocity
+/// of each listed partner (in contact-list order) held fixed.
+fn solve_particle(
+    stage: &Stage,
+    i: usize,
+    start: Motion,
+    partners: impl Iterator<Item = Vector3<f64>>,
+) -> Motion {
     let mut local = Local {
         stage,
         radius: stage.radius[i],
         force: stage.force[i],
         torque: stage.torque[i],
-        contacts,
+        contacts: stage.contacts.of(i),
         partner: [Vector3::zeros(); 32],
         overflow: Vec::new(),
     };
-    for (k, c) in contacts.iter().enumerate() {
-        let w = if c.partner == WALL {
-            Vector3::zeros()
-        } else {
-            let j = c.partner as usize;
-            motion[j].v - stage.radius[j] * motion[j].w.cross(&c.normal)
-        };
+    for (k, w) in partners.enumerate() {
         if k < local.partner.len() {
             local.partner[k] = w;
         } else {
             local.overflow.push(w);
         }
     }
-    newton(&local, motion[i])
+    newton(&local, start)
 }
 
 fn newton(local: &Local, start: Motion) -> Motion {

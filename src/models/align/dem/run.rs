@@ -1,0 +1,159 @@
+//! The alignment loop. Each stage of a Heun step refreshes the neighbour data (and with it the
+//! loads), rebuilds the contacts, sets the torques and solves the velocity problem; the
+//! integrator advances the state and the record observes it. The physics lives in the modules
+//! called here.
+
+use nalgebra::Vector3;
+
+use super::contacts::{ContactLaw, ContactSet};
+use super::integrator::{fastest_rotation, time_step, Heun};
+use super::loads::Loads;
+use super::observables::{check_overlaps, check_velocities, sticking_fraction, Record};
+use super::packing::Packing;
+use super::state::State;
+use super::torque::Anisotropy;
+use super::velocity::{self, Schedule, SolverControl, Stage};
+use crate::models::align::params::AlignParams;
+use crate::models::align::AlignOutcome;
+use crate::neighbor::NeighborList;
+
+/// Neighbour-list skin during alignment, R_av (particles hardly move).
+const SKIN: f64 = 0.2;
+/// Smallest gap (R_av) below which a pair enters the implicit velocity problem; the margin
+/// follows twice the largest displacement of the previous step (starting at the list skin).
+const MIN_CONTACT_MARGIN: f64 = 0.02;
+
+/// One alignment run: its fixed data, evolving state and the work buffers of its stages.
+pub struct Run<'a> {
+    params: &'a AlignParams,
+    packing: &'a Packing,
+    state: State,
+    heun: Heun,
+    record: Record,
+    list: NeighborList,
+    schedule: Schedule,
+    contacts: ContactSet,
+    law: ContactLaw,
+    loads: Loads,
+    anisotropy: Anisotropy,
+    torque: Vec<Vector3<f64>>,
+    /// Friction regularization v_ε.
+    slip_scale: f64,
+    control: SolverControl,
+}
+
+impl<'a> Run<'a> {
+    /// A run from the settled packing at rest.
+    pub fn new(params: &'a AlignParams, packing: &'a Packing) -> Self {
+        // v_ε and the solver tolerance are fractions of the fastest possible surface speed.
+        let (omega_max, r_max) = fastest_rotation(params, packing);
+        let surface_speed = omega_max * r_max;
+        let state = State::at_rest(packing);
+        let dt = time_step(params, packing);
+        let n = packing.radius.len();
+        Self {
+            params,
+            packing,
+            record: Record::new(&state.orientation, dt, params.scales().time),
+            state,
+            heun: Heun::new(dt),
+            list: NeighborList::new(SKIN),
+            schedule: Schedule::default(),
+            contacts: ContactSet::default(),
+            law: contact_law(params),
+            loads: Loads::none(n),
+            anisotropy: Anisotropy::new(params, packing),
+            torque: vec![Vector3::zeros(); n],
+            slip_scale: params.numerics.friction_regularization * surface_speed,
+            control: SolverControl {
+                tolerance: params.numerics.solver_tolerance * surface_speed,
+                max_sweeps: params.numerics.max_sweeps,
+            },
+        }
+    }
+
+    /// Steps until A reaches max(target, 0.9) (so τ_0.90 is always measured), the time limit
+    /// passes or the run breaks down.
+    pub fn integrate(mut self) -> AlignOutcome {
+        let steps_allowed = self.params.max_time / self.params.scales().time / self.heun.dt;
+        let max_steps = steps_allowed.ceil() as usize;
+        let stop_at = self.params.target.max(0.9);
+        while self.record.steps() < max_steps && self.record.alignment() < stop_at {
+            if let Err(reason) = self.step() {
+                self.record.fail(reason);
+                break;
+            }
+            self.record.step(&self.state.orientation);
+        }
+        let (position, applied) = (&self.state.position, self.loads.applied);
+        self.record
+            .outcome(self.params, self.packing, position, &self.contacts, applied)
+    }
+
+    /// One Heun step.
+    fn step(&mut self) -> Result<(), String> {
+        self.solve_stage()?; // predictor velocities, at the step's start
+        self.heun.predict(&mut self.state);
+        self.solve_stage()?; // corrector velocities, at the predicted state
+        self.law.skin = contact_margin(self.heun.largest_move(&self.state));
+        self.heun.correct(&mut self.state);
+        Ok(())
+    }
+
+    /// Solves the velocity problem at the current state, warm-started from the last solve.
+    fn solve_stage(&mut self) -> Result<(), String> {
+        self.refresh_neighbours();
+        let (position, packing) = (&self.state.position, self.packing);
+        let radius = &packing.radius;
+        self.contacts
+            .rebuild(position, radius, &self.list, &packing.container, &self.law);
+        check_overlaps(&self.contacts)?;
+        self.anisotropy
+            .apply(&self.state.orientation, &mut self.torque);
+        let stage = Stage {
+            contacts: &self.contacts,
+            law: &self.law,
+            radius,
+            force: &self.loads.force,
+            torque: &self.torque,
+            dt: self.heun.dt,
+            slip_scale: self.slip_scale,
+        };
+        let motion = &mut self.state.motion;
+        let stats = velocity::solve(&stage, &self.schedule, motion, self.control);
+        self.record.solved(stats, sticking_fraction(&stage, motion));
+        check_velocities(motion)
+    }
+
+    /// Rebuilds the neighbour list when particles have moved far enough, and with it the
+    /// Gauss–Seidel order and the loads (which particles carry the pressure changes only as
+    /// the bed rearranges).
+    fn refresh_neighbours(&mut self) {
+        let (position, radius) = (&self.state.position, &self.packing.radius);
+        if self.list.update(position, radius) {
+            self.loads.update(self.params, position, radius);
+            let r_max = radius.iter().cloned().fold(0.0, f64::max);
+            let parallel_from = self.params.numerics.parallel_from;
+            self.schedule = Schedule::new(position, 2.0 * r_max + SKIN, parallel_from);
+        }
+    }
+}
+
+/// Contacts between particles and with the die walls, both of the particle material; pairs
+/// start within the list skin.
+fn contact_law(params: &AlignParams) -> ContactLaw {
+    let nu = params.material.poisson_ratio;
+    ContactLaw {
+        effective_modulus: 1.0 / (2.0 * (1.0 - nu * nu)),
+        friction: params.friction,
+        wall_friction: params.wall_friction,
+        skin: SKIN,
+    }
+}
+
+/// Gap below which pairs enter the next velocity problems: twice the last step's largest
+/// displacement (wider gaps cannot close within a step), at least MIN_CONTACT_MARGIN, at most
+/// the list skin (beyond it pairs are not listed).
+fn contact_margin(largest_move: f64) -> f64 {
+    (2.0 * largest_move).clamp(MIN_CONTACT_MARGIN, SKIN)
+}
