@@ -4,7 +4,8 @@
 
 use clap::{Arg, ArgMatches};
 
-use crate::study::model::{ParamKind, ParamSpec, StudyModel, Value};
+use crate::study::model::{ParamKind, ParamSpec, StudyModel};
+use crate::study::spec::Base;
 use crate::{Error, Result};
 
 /// The flag of a parameter name (`max_time` → `max-time`).
@@ -170,10 +171,7 @@ pub fn given<M: StudyModel>(model: &M, matches: &ArgMatches) -> Result<Vec<Given
 /// The model's defaults with the given values set (each parsed, range-checked and named by its
 /// flag on error), then checked as a whole. Returns the parameters and the parsed values in
 /// name order (the base of the one-point study that runs them).
-pub fn setup<M: StudyModel>(
-    model: &M,
-    given: &[Given],
-) -> Result<(M::Params, Vec<(String, Value)>)> {
+pub fn setup<M: StudyModel>(model: &M, given: &[Given]) -> Result<Base<M::Params>> {
     let mut params = model.defaults();
     let mut values = Vec::new();
     for g in given {
@@ -195,6 +193,7 @@ mod tests {
     use crate::models::align::study::AlignModel;
     use crate::models::bed::study::BedModel;
     use crate::models::blast::study::BlastModel;
+    use crate::study::model::Value;
 
     /// The `[default: …]` of every flag's help, read back through the parameter's own parser,
     /// is the model's default (derived defaults print the declared description).

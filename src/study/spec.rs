@@ -366,7 +366,7 @@ fn metrics<M: StudyModel>(model: &M, wanted: Option<Vec<String>>) -> Result<Vec<
 }
 
 /// Base parameters and their parsed values.
-type Base<P> = (P, Vec<(String, Value)>);
+pub type Base<P> = (P, Vec<(String, Value)>);
 
 /// The spec of a key, or an error naming the table.
 fn spec_of<M: StudyModel>(model: &M, table: &str, key: &str) -> Result<&'static ParamSpec> {
