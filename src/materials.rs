@@ -43,6 +43,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
 use crate::units::{self, Dimension};
 use crate::{Error, Result};
 
@@ -192,7 +193,7 @@ impl MaterialDb {
     /// Adds or overrides materials from a TOML file (format in the module documentation).
     /// Errors name the file and the bad key/value. Nothing is changed on error.
     pub fn load_file(&mut self, path: &Path) -> Result<()> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = read_text_limited(path, MAX_TEXT_INPUT, "materials file")?;
         self.load_str(&text, &path.display().to_string())
     }
 

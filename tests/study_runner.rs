@@ -40,6 +40,7 @@ fn run(dir: &Path, resume: bool, shard: Option<Shard>) {
     let options = SweepOptions {
         out: dir.to_path_buf(),
         resume,
+        keep_stale: false,
         shard,
         command: "test".into(),
     };
@@ -62,8 +63,14 @@ fn assert_same_results(a: &Path, b: &Path) {
 #[test]
 fn expansion_and_seeds_are_deterministic() {
     let m = model();
-    let a = Study::parse(&m, STUDY, "grid.toml").unwrap().runs(&m);
-    let b = Study::parse(&m, STUDY, "grid.toml").unwrap().runs(&m);
+    let a = Study::parse(&m, STUDY, "grid.toml")
+        .unwrap()
+        .runs(&m)
+        .unwrap();
+    let b = Study::parse(&m, STUDY, "grid.toml")
+        .unwrap()
+        .runs(&m)
+        .unwrap();
     assert_eq!(a, b);
     assert_eq!(a.len(), 4 * 2 * 2);
     for run in &a {
@@ -76,7 +83,10 @@ fn expansion_and_seeds_are_deterministic() {
     let ids: std::collections::HashSet<_> = a.iter().map(|r| r.id.clone()).collect();
     assert_eq!(ids.len(), a.len(), "run ids are unique");
     let changed = STUDY.replace("friction = 0.1", "friction = 0.2");
-    let c = Study::parse(&m, &changed, "grid.toml").unwrap().runs(&m);
+    let c = Study::parse(&m, &changed, "grid.toml")
+        .unwrap()
+        .runs(&m)
+        .unwrap();
     assert!(
         a.iter().zip(&c).all(|(x, y)| x.id != y.id),
         "a different base gives different ids"
@@ -113,6 +123,7 @@ fn sweep_refuses_to_overwrite_without_resume() {
     let options = SweepOptions {
         out: dir.clone(),
         resume: false,
+        keep_stale: false,
         shard: None,
         command: "test".into(),
     };

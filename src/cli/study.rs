@@ -10,6 +10,7 @@ use crate::models::align::study::AlignModel;
 use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
+use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
 use crate::study::model::{ParamSpec, StudyModel, Value};
 use crate::study::optimize::optimum_json;
 use crate::study::records;
@@ -25,9 +26,15 @@ pub struct SweepArgs {
     /// Result directory [default: results/<study name>].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Continue an interrupted sweep: skip runs already saved in --out.
+    /// Continue an interrupted or edited sweep: reuse the runs saved in --out whose inputs
+    /// (parameters, material and species files, defaults) and code still match; recompute the
+    /// rest, saying how many saved runs are stale and why.
     #[arg(long)]
     resume: bool,
+    /// With --resume, keep stale runs (same point and seed, changed inputs or code) instead of
+    /// recomputing them; recorded in provenance.json.
+    #[arg(long, requires = "resume")]
+    keep_stale: bool,
     /// Run only slice I of N (0 ≤ I < N) of the run list, for job arrays.
     #[arg(long, value_name = "I/N")]
     shard: Option<Shard>,
@@ -74,8 +81,13 @@ pub struct PlotArgs {
 }
 
 fn read_study(path: &Path) -> Result<(String, String)> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::input(format!("cannot read study file '{}': {e}", path.display())))?;
+    let text = read_text_limited(path, MAX_TEXT_INPUT, "study file").map_err(|e| match e {
+        Error::Io { path, source } => Error::input(format!(
+            "cannot read study file '{}': {source}",
+            path.display()
+        )),
+        other => other,
+    })?;
     let origin = path.display().to_string();
     let model = model_name(&text, &origin)?;
     Ok((text, model))
@@ -128,6 +140,7 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
         let options = SweepOptions {
             out: out.clone(),
             resume: args.resume,
+            keep_stale: args.keep_stale,
             shard: args.shard,
             command: command_line(),
         };
@@ -137,6 +150,21 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
         });
         bar.finish_and_clear();
         let report = report?;
+        for line in &report.set_aside {
+            eprintln!("magopt: run file {line}");
+        }
+        if !report.stale.is_empty() {
+            let action = if args.keep_stale {
+                "kept (--keep-stale)"
+            } else {
+                "recomputed"
+            };
+            eprintln!(
+                "magopt: {} saved runs were stale and {action}: {}",
+                report.stale.len(),
+                summarize(&report.stale)
+            );
+        }
         println!(
             "{}: {} runs done now, {} were already done, {} failed or not reached (recorded as \
              data); results in {}",
@@ -148,6 +176,20 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
         );
         Ok(0)
     })
+}
+
+/// Reasons with their counts, most frequent first ("3 × code …; 1 × input …").
+fn summarize(reasons: &[String]) -> String {
+    let mut counts: Vec<(String, usize)> = Vec::new();
+    for r in reasons {
+        match counts.iter_mut().find(|(x, _)| x == r) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((r.clone(), 1)),
+        }
+    }
+    counts.sort_by_key(|c| std::cmp::Reverse(c.1));
+    let parts: Vec<String> = counts.iter().map(|(r, n)| format!("{n} × {r}")).collect();
+    parts.join("; ")
 }
 
 /// `magopt optimize`.
@@ -248,7 +290,7 @@ pub fn collect(db: MaterialDb, args: &CollectArgs) -> Result<i32> {
         let study = Study::parse(m, &text, &origin)?;
         let out = args.out.clone().unwrap_or_else(|| first.clone());
         let n = runner::collect(m, &study, &args.dirs, &out, &command_line())?;
-        let total = study.runs(m).len();
+        let total = study.runs(m)?.len();
         println!(
             "{}: collected {n} of {total} runs into {}",
             study.name,

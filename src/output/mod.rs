@@ -5,6 +5,7 @@
 //! - the rest of the crate never touches polars or plotters types ([`table`], [`plot`]).
 
 pub mod atomic;
+pub mod guard;
 pub mod plot;
 pub mod shapes;
 pub mod table;

@@ -17,6 +17,7 @@ use polars::prelude as pl;
 use polars::prelude::{IntoSeries, NewChunkedArray, SerReader};
 
 use super::atomic::write_atomic;
+use super::guard::{read_limited, read_text_limited};
 use crate::{Error, Result};
 
 /// Key of the Parquet key-value metadata entry that records the column variants.
@@ -297,7 +298,7 @@ fn from_polars(col: &pl::Column, kind: Option<&str>) -> std::result::Result<Colu
 /// [`Error::Io`] if the file cannot be read; [`Error::Output`] if it is not valid Parquet or
 /// holds a column type [`ColumnData`] cannot represent.
 pub fn read_parquet(path: &Path) -> Result<Table> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = read_limited(path, MAX_CSV_INPUT, "Parquet file")?;
     let fail = |msg: String| Error::Output(format!("cannot read '{}': {msg}", path.display()));
     let mut reader = pl::ParquetReader::new(Cursor::new(bytes));
     let metadata = reader
@@ -325,6 +326,9 @@ pub fn read_parquet(path: &Path) -> Result<Table> {
     Ok(table)
 }
 
+/// Largest table file (CSV or Parquet) the readers take, bytes.
+pub const MAX_CSV_INPUT: u64 = 2 << 30;
+
 /// Read a plain CSV file: a header row of column names, then one row per line, fields
 /// separated by commas (surrounding spaces trimmed). Empty lines and lines starting with `#`
 /// are skipped. A column whose every field parses as an integer is [`ColumnData::I64`], else
@@ -336,7 +340,9 @@ pub fn read_parquet(path: &Path) -> Result<Table> {
 /// no header, a duplicate or empty column name, a row with the wrong number of fields, or a
 /// quote character.
 pub fn read_csv(path: &Path) -> Result<Table> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text_limited(path, MAX_CSV_INPUT, "CSV file")?;
+    // a byte-order mark (spreadsheet exports) is not part of the first column's name
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let fail = |msg: String| Error::Output(format!("cannot read '{}': {msg}", path.display()));
     let mut lines = text
         .lines()

@@ -123,7 +123,7 @@ impl RunResult {
 /// A model as the study runner sees it.
 pub trait StudyModel: Sync + Sized + 'static {
     /// Typed parameters of one run.
-    type Params: Clone + Send + Sync + 'static;
+    type Params: Clone + Send + Sync + std::fmt::Debug + 'static;
     /// Name in study files.
     fn name(&self) -> &'static str;
     /// Every parameter it accepts, each declared once.
@@ -140,6 +140,14 @@ pub trait StudyModel: Sync + Sized + 'static {
     /// Runs one (parameters, seed). Blow-ups are failed results; an error is only a file the
     /// run could not write into `context.artifacts`.
     fn run(&self, params: &Self::Params, seed: u64, context: &RunContext) -> Result<RunResult>;
+
+    /// Everything a run with these parameters depends on besides its seed and the code, as
+    /// text: the run id hashes it, and resume compares it. The typed parameters hold the
+    /// resolved values, the defaults and the contents of the files they name (materials,
+    /// species), so their debug text is complete.
+    fn inputs(&self, params: &Self::Params) -> String {
+        format!("{params:?}")
+    }
 
     /// Checks a complete parameter set: every declared value within its range, then the
     /// model's cross-parameter [`validate`](Self::validate).

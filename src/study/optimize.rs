@@ -13,7 +13,7 @@ use std::path::Path;
 use super::model::{ParamSpec, RunContext, StudyModel, Value};
 use super::records::RunRecord;
 use super::runner::load_or_run;
-use super::spec::{run_id, Axis, OptimizeSpec, RunSpec, Study};
+use super::spec::{run_id, OptimizeSpec, RunSpec, Study};
 use crate::optimize::{minimize_1d, Optimum, Point, Settings};
 use crate::{Error, Result};
 
@@ -47,18 +47,6 @@ struct Evaluator<'a, M: StudyModel> {
 }
 
 impl<M: StudyModel> Evaluator<'_, M> {
-    fn axes(&self) -> Vec<Axis> {
-        self.spec
-            .free
-            .iter()
-            .map(|(s, ..)| Axis {
-                spec: s,
-                values: Vec::new(),
-                log: self.spec.log,
-            })
-            .collect()
-    }
-
     /// Per-replicate metric values at x, signed so that smaller is better (the stored
     /// evaluations keep the plain values).
     fn evaluate(&self, x: &[f64]) -> Result<Vec<Option<f64>>> {
@@ -70,21 +58,20 @@ impl<M: StudyModel> Evaluator<'_, M> {
         }
         self.model.check(&params)?;
         let point = self.evaluations.borrow().len();
-        let axes = self.axes();
+        let inputs = self.model.inputs(&params);
         let (model, study, out, tick) = (self.model, self.study, self.out, self.tick);
         let fresh: Vec<Result<RunRecord>> = (0..study.replicates)
             .into_par_iter()
             .map(|r| {
                 let seed = study.seed.wrapping_add(r as u64);
-                let id = run_id(model.name(), &study.base_values, &axes, &values, seed);
-                let index = point * study.replicates + r;
                 let run = RunSpec {
-                    index,
-                    id,
+                    index: point * study.replicates + r,
+                    id: run_id(model.name(), &inputs, seed),
                     point,
                     replicate: r,
                     seed,
                     values: values.clone(),
+                    inputs: inputs.clone(),
                 };
                 // a saved run keeps its result; its position is this evaluation's
                 let record = load_or_run(model, &run, &params, out, true, &RunContext::QUIET)?;
@@ -122,9 +109,13 @@ pub fn optimize<M: StudyModel>(
         .optimize
         .as_ref()
         .ok_or_else(|| Error::input("the study has no [optimize] table"))?;
-    if let Some(dir) = out {
-        crate::output::atomic::prepare_output_dir(dir)?;
-    }
+    let _lock = match out {
+        Some(dir) => {
+            crate::output::atomic::prepare_output_dir(dir)?;
+            Some(crate::output::guard::DirLock::acquire(dir)?)
+        }
+        None => None,
+    };
     let evaluator = Evaluator {
         model,
         study,

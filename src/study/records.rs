@@ -15,6 +15,10 @@ use crate::{Error, Result};
 /// The magopt version recorded with every result.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
+/// The code fingerprint recorded with every run and part of its id: the version and a hash of
+/// every source file that can change what a run computes (see build.rs).
+pub const CODE: &str = concat!(env!("CARGO_PKG_VERSION"), "+", env!("MAGOPT_PHYSICS_HASH"));
+
 /// One finished run: what was run and what it gave.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunRecord {
@@ -25,6 +29,9 @@ pub struct RunRecord {
     pub result: RunResult,
     /// magopt version that ran it.
     pub magopt_version: String,
+    /// Code fingerprint that ran it ([`CODE`]; empty in records written before 0.2).
+    #[serde(default)]
+    pub code: String,
 }
 
 impl RunRecord {
@@ -34,6 +41,7 @@ impl RunRecord {
             run: run.clone(),
             result,
             magopt_version: VERSION.to_string(),
+            code: CODE.to_string(),
         }
     }
 }
@@ -52,16 +60,51 @@ pub fn save(dir: &Path, record: &RunRecord) -> Result<()> {
     write_json_atomic(&record_path(dir, &record.run.id), &value)
 }
 
-/// Reads a run's record if it exists.
-pub fn load(dir: &Path, id: &str) -> Result<Option<RunRecord>> {
+/// Reads a run's record if it exists and is sound; a file that does not parse, or whose id
+/// is not its name, is moved to `runs/unreadable/` (never deleted) and counts as missing. The
+/// second value says what was set aside.
+pub fn load(dir: &Path, id: &str) -> Result<(Option<RunRecord>, Option<String>)> {
     let path = record_path(dir, id);
-    match std::fs::read_to_string(&path) {
-        Ok(text) => serde_json::from_str(&text).map(Some).map_err(|e| {
-            Error::input(format!("{}: not a magopt run record ({e})", path.display()))
-        }),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(Error::io(path, e)),
-    }
+    let text = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((None, None)),
+        Err(e) => return Err(Error::io(path, e)),
+    };
+    let why = match serde_json::from_str::<RunRecord>(&text) {
+        Ok(record) if record.run.id == id => return Ok((Some(record), None)),
+        Ok(record) => format!("holds run {}", record.run.id),
+        Err(e) => format!("not a run record ({e})"),
+    };
+    Ok((None, Some(set_aside(dir, &path, "unreadable", &why)?)))
+}
+
+/// Moves a run file into `runs/<folder>/` and says so.
+pub fn set_aside(dir: &Path, path: &Path, folder: &str, why: &str) -> Result<String> {
+    let aside = dir.join("runs").join(folder);
+    std::fs::create_dir_all(&aside).map_err(|e| Error::io(&aside, e))?;
+    let name = path.file_name().unwrap_or_default();
+    std::fs::rename(path, aside.join(name)).map_err(|e| Error::io(path, e))?;
+    Ok(format!(
+        "{} {why}: moved to runs/{folder}/",
+        name.to_string_lossy()
+    ))
+}
+
+/// Every sound run record saved in `dir` (a file that does not parse is left for [`load`]).
+pub fn saved(dir: &Path) -> Vec<(PathBuf, RunRecord)> {
+    let Ok(entries) = std::fs::read_dir(dir.join("runs")) else {
+        return Vec::new();
+    };
+    let mut found: Vec<(PathBuf, RunRecord)> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .filter_map(|p| {
+            let text = std::fs::read_to_string(&p).ok()?;
+            serde_json::from_str(&text).ok().map(|r| (p, r))
+        })
+        .collect();
+    found.sort_by(|a, b| a.0.cmp(&b.0));
+    found
 }
 
 /// Number of run records in a directory.
@@ -284,17 +327,23 @@ pub fn columns<M: StudyModel>(study: &Study<M>) -> Columns {
     }
 }
 
-/// Writes runs/series/summary tables, the study file and the provenance into `dir`.
+/// Writes runs/series/summary tables, the study file and the provenance into `dir`; `resume`
+/// (what a resumed sweep reused, found stale or set aside) goes into the provenance.
 pub fn write_results<M: StudyModel>(
     model: &M,
     study: &Study<M>,
     dir: &Path,
     records: &[RunRecord],
     command: &str,
+    resume: Option<serde_json::Value>,
 ) -> Result<()> {
     let cols = columns(study);
     write_parquet(&dir.join("summary.parquet"), &summary_table(&cols, records))?;
-    write_run_tables(model, study, dir, "runs.parquet", &cols, records, command)
+    let mut prov = provenance(model, study, command);
+    if let Some(resume) = resume {
+        prov["resume"] = resume;
+    }
+    write_run_tables(model, study, dir, "runs.parquet", &cols, records, &prov)
 }
 
 /// Writes an optimization's runs: `evaluations.parquet` (one row per evaluated point and
@@ -311,6 +360,7 @@ pub fn write_optimize_results<M: StudyModel>(
         axes: free.iter().map(|(s, ..)| (s.column(), *s)).collect(),
         metrics: study.metrics.clone(),
     };
+    let prov = provenance(model, study, command);
     write_run_tables(
         model,
         study,
@@ -318,7 +368,7 @@ pub fn write_optimize_results<M: StudyModel>(
         "evaluations.parquet",
         &cols,
         records,
-        command,
+        &prov,
     )
 }
 
@@ -330,7 +380,7 @@ fn write_run_tables<M: StudyModel>(
     runs_file: &str,
     cols: &Columns,
     records: &[RunRecord],
-    command: &str,
+    provenance: &serde_json::Value,
 ) -> Result<()> {
     write_parquet(
         &dir.join(runs_file),
@@ -338,16 +388,14 @@ fn write_run_tables<M: StudyModel>(
     )?;
     write_parquet(&dir.join("series.parquet"), &series_table(cols, records))?;
     write_atomic(&dir.join("study.toml"), study.text.as_bytes())?;
-    write_json_atomic(
-        &dir.join("provenance.json"),
-        &provenance(model, study, command),
-    )
+    write_json_atomic(&dir.join("provenance.json"), provenance)
 }
 
 /// Version, command, date, seeds, swept parameters (for `magopt plot`), metrics.
 pub fn provenance<M: StudyModel>(model: &M, study: &Study<M>, command: &str) -> serde_json::Value {
     serde_json::json!({
         "magopt_version": VERSION,
+        "code": CODE,
         "model": model.name(),
         "study": study.name,
         "command": command,

@@ -8,6 +8,7 @@ use super::model::{RunContext, StudyModel};
 use super::records::{self, RunRecord};
 use super::spec::{RunSpec, Study};
 use crate::output::atomic::prepare_output_dir;
+use crate::output::guard::DirLock;
 use crate::{Error, Result};
 
 /// A slice of the run list for job arrays: runs with index % count == index_of_shard.
@@ -42,8 +43,11 @@ impl std::str::FromStr for Shard {
 pub struct SweepOptions {
     /// Result directory.
     pub out: PathBuf,
-    /// Skip runs already saved in `out`.
+    /// Reuse runs already saved in `out` whose inputs and code still match.
     pub resume: bool,
+    /// With `resume`, also reuse saved runs of the same point and seed whose inputs or code
+    /// changed (recorded in the provenance), instead of recomputing them.
+    pub keep_stale: bool,
     /// Run only this slice.
     pub shard: Option<Shard>,
     /// The command line (provenance).
@@ -51,34 +55,103 @@ pub struct SweepOptions {
 }
 
 /// What a sweep did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct SweepReport {
     /// Runs executed now.
     pub ran: usize,
-    /// Runs found finished and skipped.
+    /// Runs found finished and reused.
     pub skipped: usize,
     /// Runs (of this shard) that failed or did not reach their target.
     pub unsuccessful: usize,
+    /// Saved runs of a current point and seed whose inputs or code no longer match, with why
+    /// (recomputed, or kept with `keep_stale`).
+    pub stale: Vec<String>,
+    /// Run files that did not parse or held another run: set aside in runs/unreadable/.
+    pub set_aside: Vec<String>,
 }
 
-/// The runs of a shard that still have to run, and those already saved.
+/// Why a saved run of the same point and seed is not the current run: the code changed, or
+/// the first input that differs.
+fn why_stale(saved: &RunRecord, run: &RunSpec) -> String {
+    if saved.code != records::CODE {
+        return format!(
+            "code {} is now {}",
+            if saved.code.is_empty() {
+                "(before 0.2)"
+            } else {
+                &saved.code
+            },
+            records::CODE
+        );
+    }
+    let split = |t: &str| -> Vec<String> {
+        t.split([',', '{', '}', '(', ')'])
+            .map(|x| x.trim().to_string())
+            .collect()
+    };
+    let (old, new) = (split(&saved.run.inputs), split(&run.inputs));
+    match old.iter().zip(&new).find(|(a, b)| a != b) {
+        Some((a, b)) => format!("input `{a}` is now `{b}`"),
+        None => "inputs changed".into(),
+    }
+}
+
+/// The runs of a shard that still have to run, and those already saved (placed at their
+/// current position in the grid, which comes from the study, never from the record).
 pub fn pending(
     runs: &[RunSpec],
     shard: Option<Shard>,
     dir: &Path,
-) -> Result<(Vec<RunSpec>, Vec<RunRecord>)> {
+    keep_stale: bool,
+) -> Result<(Vec<RunSpec>, Vec<RunRecord>, SweepReport)> {
+    let mut report = SweepReport::default();
     let mut todo = Vec::new();
     let mut done = Vec::new();
-    for run in runs
+    let mine: Vec<&RunSpec> = runs
         .iter()
         .filter(|r| shard.is_none_or(|s| r.index % s.count == s.index))
-    {
-        match records::load(dir, &run.id)? {
-            Some(record) => done.push(record),
-            None => todo.push(run.clone()),
+        .collect();
+    for run in &mine {
+        let (saved, aside) = records::load(dir, &run.id)?;
+        report.set_aside.extend(aside);
+        match saved {
+            Some(saved) => done.push(RunRecord {
+                run: (*run).clone(),
+                ..saved
+            }),
+            None => todo.push((*run).clone()),
         }
     }
-    Ok((todo, done))
+    // saved runs of a pending (point values, seed) under another id are stale
+    let current: std::collections::HashSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
+    let key = |values: &[super::model::Value], seed: u64| {
+        let v: Vec<String> = values.iter().map(|v| v.canonical()).collect();
+        format!("{}|{seed}", v.join("|"))
+    };
+    let mut others: std::collections::HashMap<String, (PathBuf, RunRecord)> = records::saved(dir)
+        .into_iter()
+        .filter(|(_, r)| !current.contains(r.run.id.as_str()))
+        .map(|(p, r)| (key(&r.run.values, r.run.seed), (p, r)))
+        .collect();
+    let mut still = Vec::new();
+    for run in todo {
+        let Some((path, saved)) = others.remove(&key(&run.values, run.seed)) else {
+            still.push(run);
+            continue;
+        };
+        report.stale.push(why_stale(&saved, &run));
+        if keep_stale {
+            let inputs = saved.run.inputs.clone();
+            done.push(RunRecord {
+                run: RunSpec { inputs, ..run },
+                ..saved
+            });
+        } else {
+            records::set_aside(dir, &path, "stale", "is stale")?;
+            still.push(run);
+        }
+    }
+    Ok((still, done, report))
 }
 
 /// The one load-or-run of sweeps, optimizations and single runs: with `reuse`, the record of
@@ -93,7 +166,7 @@ pub fn load_or_run<M: StudyModel>(
     context: &RunContext,
 ) -> Result<RunRecord> {
     if let (true, Some(dir)) = (reuse, dir) {
-        if let Some(saved) = records::load(dir, &run.id)? {
+        if let (Some(saved), _) = records::load(dir, &run.id)? {
             return Ok(RunRecord {
                 run: run.clone(),
                 ..saved
@@ -117,21 +190,32 @@ pub fn single<M: StudyModel>(
     command: &str,
 ) -> Result<RunRecord> {
     let run = study
-        .runs(model)
+        .runs(model)?
         .into_iter()
         .next()
         .ok_or_else(|| Error::input("the study has no run"))?;
     let params = study.params_at(model, &run.values)?;
-    if let Some(dir) = out {
-        prepare_output_dir(dir)?;
-    }
+    let _lock = match out {
+        Some(dir) => {
+            prepare_output_dir(dir)?;
+            Some(DirLock::acquire(dir)?)
+        }
+        None => None,
+    };
     let context = RunContext {
         progress,
         artifacts: out,
     };
     let record = load_or_run(model, &run, &params, out, false, &context)?;
     if let Some(dir) = out {
-        records::write_results(model, study, dir, std::slice::from_ref(&record), command)?;
+        records::write_results(
+            model,
+            study,
+            dir,
+            std::slice::from_ref(&record),
+            command,
+            None,
+        )?;
     }
     Ok(record)
 }
@@ -146,6 +230,7 @@ pub fn sweep<M: StudyModel>(
     tick: &(impl Fn() + Sync),
 ) -> Result<SweepReport> {
     prepare_output_dir(&options.out)?;
+    let _lock = DirLock::acquire(&options.out)?;
     let saved = records::count_saved(&options.out);
     if saved > 0 && !options.resume {
         return Err(Error::input(format!(
@@ -153,9 +238,10 @@ pub fn sweep<M: StudyModel>(
             options.out.display()
         )));
     }
-    let runs = study.runs(model);
-    let (todo, mut done) = pending(&runs, options.shard, &options.out)?;
-    let skipped = done.len();
+    let runs = study.runs(model)?;
+    let (todo, mut done, mut report) =
+        pending(&runs, options.shard, &options.out, options.keep_stale)?;
+    report.skipped = done.len();
     total(todo.len());
     let fresh: Vec<Result<RunRecord>> = todo
         .par_iter()
@@ -167,18 +253,27 @@ pub fn sweep<M: StudyModel>(
             Ok(record)
         })
         .collect();
-    let ran = fresh.len();
+    report.ran = fresh.len();
     for record in fresh {
         done.push(record?);
     }
     done.sort_by_key(|r| r.run.index);
-    let unsuccessful = done.iter().filter(|r| !r.result.status.is_ok()).count();
-    records::write_results(model, study, &options.out, &done, &options.command)?;
-    Ok(SweepReport {
-        ran,
-        skipped,
-        unsuccessful,
-    })
+    report.unsuccessful = done.iter().filter(|r| !r.result.status.is_ok()).count();
+    let resume = serde_json::json!({
+        "reused": report.skipped,
+        "stale": report.stale,
+        "stale_kept": options.keep_stale && !report.stale.is_empty(),
+        "set_aside": report.set_aside,
+    });
+    records::write_results(
+        model,
+        study,
+        &options.out,
+        &done,
+        &options.command,
+        Some(resume),
+    )?;
+    Ok(report)
 }
 
 /// Merges the runs saved in several result directories of the same study (shards) into `out`.
@@ -191,13 +286,17 @@ pub fn collect<M: StudyModel>(
     command: &str,
 ) -> Result<usize> {
     prepare_output_dir(out)?;
+    let _lock = DirLock::acquire(out)?;
     let mut found = Vec::new();
-    for run in study.runs(model) {
-        if let Some(record) = dirs
-            .iter()
-            .find_map(|d| records::load(d, &run.id).transpose())
-            .transpose()?
-        {
+    for run in study.runs(model)? {
+        let mut saved = None;
+        for dir in dirs {
+            if let (Some(record), _) = records::load(dir, &run.id)? {
+                saved = Some(record);
+                break;
+            }
+        }
+        if let Some(record) = saved {
             if out
                 != dirs
                     .iter()
@@ -210,7 +309,7 @@ pub fn collect<M: StudyModel>(
             found.push(record);
         }
     }
-    records::write_results(model, study, out, &found, command)?;
+    records::write_results(model, study, out, &found, command, None)?;
     Ok(found.len())
 }
 

@@ -117,6 +117,10 @@ pub struct RunSpec {
     pub seed: u64,
     /// Values of the swept parameters at this point.
     pub values: Vec<Value>,
+    /// Everything the run depends on besides seed and code (the model's resolved parameters,
+    /// materials and species included), as text.
+    #[serde(default)]
+    pub inputs: String,
 }
 
 /// The model a study file names (read before the model-specific parse).
@@ -186,9 +190,18 @@ impl<M: StudyModel> Study<M> {
             optimize,
             text: text.to_string(),
         };
-        for point in study.points() {
-            study.params_at(model, &point).map_err(at)?;
+        let points = study
+            .axes
+            .iter()
+            .try_fold(1usize, |n, a| n.checked_mul(a.values.len()))
+            .and_then(|n| n.checked_mul(study.replicates))
+            .filter(|&n| n <= MAX_RUNS);
+        if points.is_none() {
+            return Err(at(Error::input(format!(
+                "the grid × replicates has more than {MAX_RUNS} runs (split the study)"
+            ))));
         }
+        study.runs(model).map_err(at)?;
         Ok(study)
     }
 
@@ -205,6 +218,12 @@ impl<M: StudyModel> Study<M> {
         name: &str,
         origin: &str,
     ) -> Result<Self> {
+        if i64::try_from(seed).is_err() {
+            return Err(Error::input(format!(
+                "seed: {seed} is not allowed (need 0..={})",
+                i64::MAX
+            )));
+        }
         let is_free = |k: &str| optimize.is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == k));
         let mut text = format!(
             "# written by `{}`\nname = \"{name}\"\nmodel = \"{}\"\nreplicates = {replicates}\n\
@@ -269,55 +288,61 @@ impl<M: StudyModel> Study<M> {
     }
 
     /// The run list: points × replicates, deterministic; replicate r has seed `seed + r` at
-    /// every point (common random numbers).
-    pub fn runs(&self, model: &M) -> Vec<RunSpec> {
+    /// every point (common random numbers). Each run's id covers everything it depends on (its
+    /// resolved inputs, the code fingerprint, the seed); two points that resolve to the same
+    /// inputs are an error.
+    pub fn runs(&self, model: &M) -> Result<Vec<RunSpec>> {
         let points = self.points();
-        let mut runs = Vec::with_capacity(points.len() * self.replicates);
+        let mut runs: Vec<RunSpec> = Vec::with_capacity(points.len() * self.replicates);
+        let mut seen = std::collections::HashMap::new();
         for (p, values) in points.into_iter().enumerate() {
+            let inputs = model.inputs(&self.params_at(model, &values)?);
+            if let Some(q) = seen.insert(inputs.clone(), p) {
+                return Err(Error::input(format!(
+                    "{}: grid points {q} and {p} are the same run (their values are equal after \
+                     unit conversion): list each value once",
+                    self.name
+                )));
+            }
             for r in 0..self.replicates {
                 let seed = self.seed.wrapping_add(r as u64);
-                let id = run_id(model.name(), &self.base_values, &self.axes, &values, seed);
                 runs.push(RunSpec {
                     index: runs.len(),
-                    id,
+                    id: run_id(model.name(), &inputs, seed),
                     point: p,
                     replicate: r,
                     seed,
                     values: values.clone(),
+                    inputs: inputs.clone(),
                 });
             }
         }
-        runs
+        Ok(runs)
     }
 }
 
-/// FNV-1a over the canonical description of a run.
-pub fn run_id(
-    model: &str,
-    base: &[(String, Value)],
-    axes: &[Axis],
-    values: &[Value],
-    seed: u64,
-) -> String {
-    let mut text = format!("{model}|seed={seed}");
-    for (k, v) in base {
-        text += &format!("|{k}={}", v.canonical());
-    }
-    for (a, v) in axes.iter().zip(values) {
-        text += &format!("|{}={}", a.spec.name, v.canonical());
-    }
+/// The id of a run: FNV-1a over the model, the seed, the code fingerprint and the run's
+/// resolved inputs.
+pub fn run_id(model: &str, inputs: &str, seed: u64) -> String {
+    let text = format!("{model}|seed={seed}|code={}|{inputs}", super::records::CODE);
     let hash = text.bytes().fold(0xcbf29ce484222325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100000001b3)
     });
     format!("{hash:016x}")
 }
 
+/// Most runs one study may hold (grid points × replicates).
+pub const MAX_RUNS: usize = 1_000_000;
+
+/// Most replicates, scan points or iterations a study may ask for.
+const MAX_REPEATS: i64 = 100_000;
+
 fn positive(key: &str, n: i64) -> Result<usize> {
-    if n >= 1 {
+    if (1..=MAX_REPEATS).contains(&n) {
         Ok(n as usize)
     } else {
         Err(Error::input(format!(
-            "{key}: {n} is not allowed (need ≥ 1)"
+            "{key}: {n} is not allowed (need 1..={MAX_REPEATS})"
         )))
     }
 }

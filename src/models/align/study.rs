@@ -118,7 +118,12 @@ static PARAMETERS: &[AlignParam] = &[
         },
     },
     number_param!(
-        ParamSpec::new("particles", K::Count, "Number of particles N"),
+        ParamSpec::new(
+            "particles",
+            K::Count,
+            "Number of particles N (at most 1e7: about 1 kB of memory each)"
+        )
+        .within(Bounds::closed(1.0, 1e7)),
         params.particles
     ),
     number_param!(

@@ -201,6 +201,9 @@ pub struct BedParams {
     pub record_interval: Option<f64>,
     /// Flag a run when two discs come closer than this fraction of their mean diameter (0.9).
     pub min_distance_ratio: f64,
+    /// Steps after which a run fails instead of going on (1e7: a 10⁴-disc cycle at the
+    /// defaults takes 8.5e5), so that no setting can make a run hang.
+    pub max_steps: usize,
     /// Collect snapshots (start of compression, maximum compression, end).
     pub snapshots: bool,
     /// Damper: piston mass, kg (200 g; a piston much heavier than the bed can carry crushes it).
@@ -254,6 +257,7 @@ impl BedParams {
             max_time_step: 1e-3,
             record_interval: None,
             min_distance_ratio: 0.9,
+            max_steps: 10_000_000,
             snapshots: true,
             piston_mass: 0.2,
             damper_time: 2.0,

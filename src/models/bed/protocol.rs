@@ -109,6 +109,14 @@ impl<'a> Simulation<'a> {
     /// Counters, extremes, checks and recording after a step.
     pub fn after_step(&mut self) -> Result<(), String> {
         self.steps += 1;
+        if self.steps > self.params.max_steps {
+            return Err(format!(
+                "step budget of {} steps spent at t = {:.4e} s: raise max_steps, or check the \
+                 settings that shrink the time step (time_step_factor, viscous_time, \
+                 piston_mass) or lengthen the run (final_rest, piston_speed)",
+                self.params.max_steps, self.state.time
+            ));
+        }
         self.check()?;
         if self.state.time >= self.next_record {
             self.record();

@@ -10,6 +10,7 @@ use super::params::{
 use super::protocol::run_cycle;
 use super::report::cycle_figures;
 use super::BedOutcome;
+use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
 use crate::output::{atomic, plot};
 use crate::study::model::{
     Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
@@ -121,6 +122,7 @@ static PARAMETERS: &[BedParam] = &[
             K::Count,
             "Number of particles N; the cell scales by √(N/N_preset)"
         )
+        .within(Bounds::closed(1.0, 1e6))
         .derived("368 mono, 400 bidisperse"),
         particles
     ),
@@ -454,6 +456,14 @@ static PARAMETERS: &[BedParam] = &[
         min_distance_ratio
     ),
     number_param!(
+        ParamSpec::new(
+            "max_steps",
+            K::Count,
+            "Step budget: a run that needs more steps fails with its reason instead of going on"
+        ),
+        max_steps
+    ),
+    number_param!(
         q("piston_mass", D::Mass, "g", "Damper: piston mass").within(POSITIVE),
         piston_mass
     ),
@@ -519,8 +529,7 @@ pub fn load_species(path: &str) -> Result<Vec<Species>> {
         diameter: toml::Value,
         fraction: f64,
     }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::input(format!("species file '{path}': {e}")))?;
+    let text = read_text_limited(std::path::Path::new(path), MAX_TEXT_INPUT, "species file")?;
     let file: File = toml::from_str(&text)
         .map_err(|e| Error::input(format!("species file '{path}': {}", e.message())))?;
     if file.species.is_empty() {

@@ -108,7 +108,8 @@ static PARAMETERS: &[BlastParam] = &[
         energy
     ),
     number_param!(
-        ParamSpec::new("particles", K::Count, "Number of particles N"),
+        ParamSpec::new("particles", K::Count, "Number of particles N")
+            .within(Bounds::closed(1.0, 1e6)),
         particles
     ),
     number_param!(
@@ -539,9 +540,19 @@ impl BlastModel {
                 series_of(&|s| s.largest_cluster as f64),
             ));
         }
+        // a state that is not finite is a failed run, never an "ok" with missing numbers
+        let broken = [s.kinetic_energy, e.along, e.across, e.mean_radius]
+            .iter()
+            .any(|x| !x.is_finite())
+            .then(|| {
+                format!(
+                    "non-finite state at t = {} s (kinetic energy {} J, semi-axes {} m, {} m)",
+                    s.time, s.kinetic_energy, e.along, e.across
+                )
+            });
         RunResult {
-            status: match &outcome.failure {
-                Some(reason) => RunStatus::Failed(reason.clone()),
+            status: match outcome.failure.clone().or(broken) {
+                Some(reason) => RunStatus::Failed(reason),
                 None => RunStatus::Ok,
             },
             notes: Vec::new(),

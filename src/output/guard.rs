@@ -1,0 +1,141 @@
+//! Guards at the file boundary: bounded reads of input files, and one lock per result
+//! directory so two commands never write the same results at once.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use crate::{Error, Result};
+
+/// Largest text input (study, materials and species files) magopt reads, bytes.
+pub const MAX_TEXT_INPUT: u64 = 4 << 20;
+
+/// Reads a text file of at most `limit` bytes; a larger file, a device or a FIFO is an input
+/// error naming the file and the limit (never an unbounded read).
+pub fn read_text_limited(path: &Path, limit: u64, what: &str) -> Result<String> {
+    String::from_utf8(read_limited(path, limit, what)?)
+        .map_err(|_| Error::input(format!("{what} '{}' is not UTF-8 text", path.display())))
+}
+
+/// Reads a file of at most `limit` bytes (see [`read_text_limited`]).
+pub fn read_limited(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>> {
+    let shown = path.display();
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        return Err(Error::input(format!(
+            "{what} '{shown}' is not a regular file"
+        )));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(limit + 1).read_to_end(&mut bytes))
+        .map_err(|e| Error::io(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(Error::input(format!(
+            "{what} '{shown}' is larger than {} MiB (the limit for this kind of file)",
+            limit >> 20
+        )));
+    }
+    Ok(bytes)
+}
+
+/// A result directory held by this process: `DIR/.magopt.lock` holds its process id and is
+/// removed when the lock is dropped. A lock left by a process that no longer runs is taken
+/// over.
+#[derive(Debug)]
+pub struct DirLock {
+    path: PathBuf,
+}
+
+impl DirLock {
+    /// Takes the lock of `dir` (which must exist), or says which process holds it.
+    pub fn acquire(dir: &Path) -> Result<Self> {
+        let path = dir.join(".magopt.lock");
+        for _ in 0..2 {
+            let created = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path);
+            match created {
+                Ok(mut file) => {
+                    use std::io::Write;
+                    let _ = write!(file, "{}", std::process::id());
+                    return Ok(Self { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let holder = std::fs::read_to_string(&path).unwrap_or_default();
+                    match holder.trim().parse::<u32>() {
+                        Ok(pid) if alive(pid) => {
+                            return Err(Error::input(format!(
+                                "'{}' is in use by magopt process {pid} (lock {}): wait for it \
+                                 to finish, or choose another --out",
+                                dir.display(),
+                                path.display()
+                            )))
+                        }
+                        // the holder is gone (killed): take the lock over
+                        _ => {
+                            let _ = std::fs::remove_file(&path);
+                        }
+                    }
+                }
+                Err(e) => return Err(Error::io(&path, e)),
+            }
+        }
+        Err(Error::input(format!(
+            "'{}': could not take the lock {}",
+            dir.display(),
+            path.display()
+        )))
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Whether a process with this id runs (Linux: /proc; elsewhere assumed alive).
+fn alive(pid: u32) -> bool {
+    if cfg!(target_os = "linux") {
+        Path::new(&format!("/proc/{pid}")).exists()
+    } else {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_second_lock_on_a_directory_is_refused_and_a_dead_holder_is_replaced() {
+        let dir = std::env::temp_dir().join(format!("magopt-lock-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let lock = DirLock::acquire(&dir).unwrap();
+        let e = DirLock::acquire(&dir).unwrap_err().to_string();
+        assert!(e.contains("in use by magopt process"), "{e}");
+        drop(lock);
+        // a lock file naming a process that does not exist is taken over
+        std::fs::write(dir.join(".magopt.lock"), "4294967295").unwrap();
+        let again = DirLock::acquire(&dir).unwrap();
+        drop(again);
+        assert!(!dir.join(".magopt.lock").exists());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn reads_are_bounded_and_devices_refused() {
+        let e = read_text_limited(Path::new("/dev/zero"), 1024, "study file")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not a regular file"), "{e}");
+        let file = std::env::temp_dir().join(format!("magopt-big-{}", std::process::id()));
+        std::fs::write(&file, vec![b'a'; 3 << 20]).unwrap();
+        let e = read_text_limited(&file, 1 << 20, "study file")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("larger than 1 MiB"), "{e}");
+        std::fs::remove_file(file).ok();
+    }
+}
