@@ -10,7 +10,7 @@ use crate::{Error, Result};
 pub const MAX_SAMPLES: usize = 100_000;
 
 /// Most time steps a run may need (duration over the longest allowed step).
-pub const MAX_STEPS: f64 = 1e9;
+pub const MAX_STEPS: f64 = 1e8;
 
 /// Highest volume fraction attempted: RSA of equal spheres jams near 0.384, and gets very slow
 /// well before; beyond this the packing is reported impossible.

@@ -17,6 +17,10 @@ use crate::models::align::params::AlignParams;
 use crate::models::align::AlignOutcome;
 use crate::neighbor::NeighborList;
 
+/// Most alignment steps a run may take (a typical run takes tens): a run that would need more
+/// fails with its reason instead of running for days.
+const MAX_STEPS: usize = 10_000_000;
+
 /// Neighbour-list skin during alignment, R_av (particles hardly move).
 const SKIN: f64 = 0.2;
 /// Smallest gap (R_av) below which a pair enters the implicit velocity problem; the margin
@@ -76,7 +80,17 @@ impl<'a> Run<'a> {
     /// passes or the run breaks down.
     pub fn integrate(mut self) -> AlignOutcome {
         let steps_allowed = self.params.max_time / self.params.scales().time / self.heun.dt;
-        let max_steps = steps_allowed.ceil() as usize;
+        let max_steps = if steps_allowed > MAX_STEPS as f64 {
+            self.record.fail(format!(
+                "max_time {} s needs {steps_allowed:.2e} steps of {:.3e} s (budget {MAX_STEPS}): \
+                 shorten max_time or raise rotation_step",
+                self.params.max_time,
+                self.heun.dt * self.params.scales().time
+            ));
+            0
+        } else {
+            steps_allowed.ceil() as usize
+        };
         let stop_at = self.params.target.max(0.9);
         while self.record.steps() < max_steps && self.record.alignment() < stop_at {
             if let Err(reason) = self.step() {
