@@ -11,7 +11,7 @@
 //!
 //! | name | Ms | K1 | E | ν | ρ | source |
 //! |---|---|---|---|---|---|---|
-//! | `srfe12o19` | 380 emu/cm³ | 3.5e6 erg/cm³ | 1.8e11 Pa | 0.28 | 5100 kg/m³ | all values: Erokhin & Berkov, phys. stat. sol. (b) 2020, doi:10.1002/pssb.202000404, Table 1 (the project's reference parameters) |
+//! | `srfe12o19` | 380 emu/cm³ | 3.5e6 erg/cm³ | 1.8e11 Pa | 0.28 | 5100 kg/m³ | Ms, K1: Erokhin & Berkov, phys. stat. sol. (b) 2020, doi:10.1002/pssb.202000404, §2.2 ("Ms = 380 G" read as emu/cm³, K = 3.5e6 erg/cm³); E, ν: same paper, §2.3; ρ: not in the paper, the spec's value (align.md; only gravity uses it) |
 //! | `bafe12o19` | μ0Ms = 0.48 T | 0.33 MJ/m³ | 1.8e11 Pa | 0.28 | 5280 kg/m³ | Ms, K1: Coey (2010), ch. 11, table of hard magnetic materials; ρ: X-ray density, typical handbook value; E, ν: typical value, taken equal to Sr ferrite (same M-type hexaferrite) |
 //! | `nd2fe14b` | μ0Ms = 1.61 T | 4.9 MJ/m³ | 1.6e11 Pa | 0.24 | 7600 kg/m³ | Ms, K1: Coey (2010), ch. 11; ρ: typical handbook value; E, ν: typical manufacturer data-sheet values for sintered NdFeB magnets |
 //! | `smco5` | μ0Ms = 1.07 T | 17.2 MJ/m³ | 1.2e11 Pa | 0.27 | 8600 kg/m³ | Ms, K1: Coey (2010), ch. 11; ρ: typical handbook value; E, ν: typical manufacturer data-sheet values for sintered SmCo5 magnets |

@@ -604,6 +604,16 @@ mod tests {
     }
 
     #[test]
+    fn csv_byte_order_mark_is_not_part_of_the_first_name() {
+        let dir = test_dir("csv-bom");
+        let path = dir.join("bom.csv");
+        std::fs::write(&path, "\u{feff}x,y\n1,2\n").unwrap();
+        let t = read_csv(&path).unwrap();
+        assert_eq!(t.columns[0].name, "x");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn csv_types_and_errors() {
         let dir = test_dir("csv");
         let path = dir.join("t.csv");
