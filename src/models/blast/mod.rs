@@ -195,9 +195,15 @@ impl BlastOutcome {
 }
 
 /// One run: blast the cloud for `seed`, integrate to the duration, sample the observables at
-/// `samples` equal intervals and keep snapshots at `snapshot_times` (s). An input error (a
-/// cloud too small for its particles) is an Err; a blow-up is a failed outcome.
-pub fn run(params: &BlastParams, seed: u64, snapshot_times: &[f64]) -> crate::Result<BlastOutcome> {
+/// `samples` equal intervals and keep snapshots at `snapshot_times` (s); `progress` hears the
+/// fraction of the duration done at every stop. An input error (a cloud too small for its
+/// particles) is an Err; a blow-up is a failed outcome.
+pub fn run(
+    params: &BlastParams,
+    seed: u64,
+    snapshot_times: &[f64],
+    progress: &dyn Fn(f64),
+) -> crate::Result<BlastOutcome> {
     params.validate()?;
     let cloud = Cloud::blast(params, seed)?;
     let started = Instant::now();
@@ -235,6 +241,7 @@ pub fn run(params: &BlastParams, seed: u64, snapshot_times: &[f64]) -> crate::Re
         if snapshot_times.contains(&t) {
             outcome.snapshots.push((t, sim.cloud.clone()));
         }
+        progress(t / params.duration);
     }
     if outcome.samples.is_empty() {
         outcome.samples.push(sim.sample());

@@ -607,7 +607,7 @@ impl StudyModel for BlastModel {
             Some(_) => params.snapshot_times(),
             None => Vec::new(),
         };
-        Ok(match run(params, seed, &times) {
+        Ok(match run(params, seed, &times, context.progress) {
             Ok(outcome) => {
                 if let Some(dir) = context.artifacts {
                     let snaps = dir.join("snapshots");
