@@ -122,7 +122,22 @@ pub fn pending(
             None => todo.push((*run).clone()),
         }
     }
-    // saved runs of a pending (point values, seed) under another id are stale
+    let still = claim_stale(runs, todo, dir, keep_stale, &mut done, &mut report)?;
+    Ok((still, done, report))
+}
+
+/// Of the runs still to do, those with a saved run of the same point values and seed under
+/// another id (changed inputs or code): named in the report, then kept (`keep_stale`, placed
+/// at the current position with their own inputs) or moved to `runs/stale/` and left to run.
+/// Returns the runs still to do.
+fn claim_stale(
+    runs: &[RunSpec],
+    todo: Vec<RunSpec>,
+    dir: &Path,
+    keep_stale: bool,
+    done: &mut Vec<RunRecord>,
+    report: &mut SweepReport,
+) -> Result<Vec<RunSpec>> {
     let current: std::collections::HashSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
     let key = |values: &[super::model::Value], seed: u64| {
         let v: Vec<String> = values.iter().map(|v| v.canonical()).collect();
@@ -151,7 +166,7 @@ pub fn pending(
             still.push(run);
         }
     }
-    Ok((still, done, report))
+    Ok(still)
 }
 
 /// The one load-or-run of sweeps, optimizations and single runs: with `reuse`, the record of
