@@ -9,6 +9,7 @@ use magopt::models::bed::damper::run_damper;
 use magopt::models::bed::params::{BedParams, Friction, Preset};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::state::Geometry;
+use magopt::output::particles::{read_lammps_dump, read_xyz};
 use magopt::output::table::{read_parquet, ColumnData};
 
 fn small_bed() -> BedParams {
@@ -107,19 +108,39 @@ fn snapshots_follow_the_contract() {
     let dir = std::env::temp_dir().join(format!("magopt-bed-snap-{}", std::process::id()));
     o.snapshots[1].write(&dir, "max").unwrap();
     let table = read_parquet(&dir.join("max.parquet")).unwrap();
-    for name in ["x", "y", "diameter", "vx", "vy", "force"] {
+    for name in [
+        "x_m",
+        "y_m",
+        "z_m",
+        "radius_m",
+        "vx_m_per_s",
+        "vy_m_per_s",
+        "vz_m_per_s",
+        "mass_kg",
+        "force_magnitude_N",
+    ] {
         assert!(
             matches!(table.column(name), Some(ColumnData::F64(v)) if v.len() == 24),
             "{name}"
         );
     }
-    assert!(matches!(table.column("species"), Some(ColumnData::I64(_))));
+    assert!(matches!(table.column("type"), Some(ColumnData::I64(_))));
     let xyz = std::fs::read_to_string(dir.join("max.xyz")).unwrap();
     let lines: Vec<&str> = xyz.lines().collect();
     assert_eq!(lines[0], "24");
-    assert!(lines[1].contains("Properties=species:I:1:pos:R:3:diameter:R:1:velo:R:3:force:R:1"));
+    assert!(lines[1].contains(
+        "Properties=species:S:1:type:I:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
+         force_magnitude:R:1 "
+    ));
     assert_eq!(lines.len(), 26);
-    assert_eq!(lines[2].split_whitespace().count(), 9);
+    assert_eq!(lines[2].split_whitespace().count(), 14);
+    let frame = read_xyz(&xyz, 0).unwrap();
+    assert_eq!(frame, o.snapshots[1].frame());
+    let dump = std::fs::read_to_string(dir.join("max.dump")).unwrap();
+    let mut from_dump = read_lammps_dump(&dump).unwrap();
+    from_dump.extra[0].unit = "N".into();
+    assert_eq!(from_dump, frame);
+    assert!(dir.join("max.vtk").exists());
     std::fs::remove_dir_all(dir).ok();
 }
 

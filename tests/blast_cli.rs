@@ -51,6 +51,9 @@ fn out_writes_tables_and_snapshots() {
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".xyz")).count(), 3);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".parquet")).count(), 3);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".png")).count(), 3);
+    assert_eq!(snaps.iter().filter(|s| s.ends_with(".dump")).count(), 3);
+    assert_eq!(snaps.iter().filter(|s| s.ends_with(".vtk")).count(), 3);
+    assert!(snaps.iter().any(|s| s == "snapshot.000.xyz"), "{snaps:?}");
     let xyz = std::fs::read_dir(dir.join("snapshots"))
         .unwrap()
         .map(|e| e.unwrap().path())

@@ -1,6 +1,8 @@
-//! 2D snapshots as the bed model writes them and `magopt analyze` reads them: a Parquet or CSV
-//! table with columns `x`, `y` (m) and optional `diameter` (m), `species` (integer) and
-//! `force` (N); other columns (e.g. `vx`, `vy`) are ignored.
+//! 2D snapshots as `magopt analyze` reads them: a Parquet or CSV table with columns `x`, `y`
+//! (m) and optional `diameter` (m), `species` (integer) and `force` (N); or the particle table
+//! the bed model writes ([`crate::output::particles`]): `x_m`, `y_m`, optional `radius_m` (m),
+//! `type` (1-based, species = type − 1) and `force_magnitude_N` (N). Other columns (e.g.
+//! `vx`, `z_m`) are ignored.
 
 use std::path::Path;
 
@@ -46,8 +48,21 @@ impl Snapshot {
     /// # Errors
     /// [`Error::Input`] naming the column that is missing or has the wrong type.
     pub fn from_table(table: &Table) -> Result<Self> {
-        let x = required(table, "x")?;
-        let y = required(table, "y")?;
+        let x = required(table, alias(table, "x", "x_m"))?;
+        let y = required(table, alias(table, "y", "y_m"))?;
+        if let Some(kind) = optional(table, "type")? {
+            let species = kind.iter().map(|t| *t as i64 - 1).collect();
+            return Ok(Self {
+                positions: x
+                    .iter()
+                    .zip(&y)
+                    .map(|(a, b)| Vector2::new(*a, *b))
+                    .collect(),
+                diameter: optional(table, "radius_m")?.map(|r| r.iter().map(|r| 2.0 * r).collect()),
+                species: Some(species),
+                force: optional(table, "force_magnitude_N")?,
+            });
+        }
         let species = match table.column("species") {
             None => None,
             Some(ColumnData::I64(v)) => Some(v.clone()),
@@ -87,6 +102,15 @@ impl Snapshot {
     /// Species labels, or 0 for every particle when the file has none.
     pub fn species_or_zero(&self) -> Vec<i64> {
         self.species.clone().unwrap_or_else(|| vec![0; self.len()])
+    }
+}
+
+/// `new` if the table has it but not `old`, else `old`.
+fn alias<'a>(table: &Table, old: &'a str, new: &'a str) -> &'a str {
+    if table.column(old).is_none() && table.column(new).is_some() {
+        new
+    } else {
+        old
     }
 }
 

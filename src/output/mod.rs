@@ -6,6 +6,7 @@
 
 pub mod atomic;
 pub mod guard;
+pub mod particles;
 pub mod plot;
 pub mod shapes;
 pub mod table;

@@ -6,7 +6,7 @@
 //! - `forces`: B1 pairs, B2 walls, gravity, the B4 normal force (exact, cell or Verlet lists);
 //! - `integrator`: Störmer–Verlet with exact viscous and semi-implicit dry friction, Δt rule;
 //! - `protocol`: relaxation, compression, expansion; `damper`: the free-falling piston;
-//! - `observables`: φ, D̂, distances, snapshots (Parquet + extended XYZ); `report`: figures;
+//! - `observables`: φ, D̂, distances, snapshots (particle files); `report`: figures;
 //! - `study`: `bed` and `damper` as study models.
 
 pub mod damper;

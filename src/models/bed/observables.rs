@@ -1,20 +1,17 @@
 //! Observables of a bed (pure functions of the state) and snapshot writers.
 //!
-//! Snapshot contract (read by `magopt analyze`): Parquet columns `x`, `y` (m), `diameter` (m),
-//! `species` (integer index), `vx`, `vy` (m/s), `force` (N, magnitude of the non-friction force
-//! F_T on the particle); the extended XYZ file carries the same per-particle properties
-//! (OVITO reads it: `Properties=species:I:1:pos:R:3:diameter:R:1:velo:R:3:force:R:1`, with
-//! `Radius` derivable from `diameter`).
+//! Snapshots are written through [`crate::output::particles`] (extended XYZ, LAMMPS dump,
+//! legacy VTK, Parquet with `x_m`, `y_m`, `radius_m`, `type`, `force_magnitude_N`, …; read by
+//! `magopt analyze`): discs at z = 0, type = species index + 1, extra column
+//! `force_magnitude` (N, magnitude of the non-friction force F_T on the particle).
 
-use nalgebra::Vector2;
+use nalgebra::{Vector2, Vector3};
 use rayon::prelude::*;
-use std::fmt::Write as _;
 use std::path::Path;
 
 use super::forces::ForceField;
 use super::state::{Geometry, Particles, State};
-use crate::output::atomic::write_atomic;
-use crate::output::table::{write_parquet, ColumnData as C, Table};
+use crate::output::particles::{Cell, ParticleFrame, Property};
 use crate::Result;
 
 /// Mean inter-particle distance D̂ = (1/(N(N−1))) Σ_i Σ_{j≠i} |r_i − r_j|, m. Exact O(N²),
@@ -95,6 +92,8 @@ pub struct Snapshot {
     pub diameter: Vec<f64>,
     /// Species indices.
     pub species: Vec<usize>,
+    /// Masses, kg.
+    pub mass: Vec<f64>,
     /// |F_T|, N.
     pub force: Vec<f64>,
 }
@@ -117,56 +116,31 @@ impl Snapshot {
             velocity: state.velocity.clone(),
             diameter: particles.diameter.clone(),
             species: particles.species.clone(),
+            mass: particles.mass.clone(),
             force: field.out.iter().map(|o| o.force.norm()).collect(),
         }
     }
 
-    /// The per-particle table (the snapshot contract's columns).
-    pub fn table(&self) -> Table {
-        Table::new()
-            .with("x", C::F64(self.position.iter().map(|p| p.x).collect()))
-            .with("y", C::F64(self.position.iter().map(|p| p.y).collect()))
-            .with("diameter", C::F64(self.diameter.clone()))
-            .with(
-                "species",
-                C::I64(self.species.iter().map(|&s| s as i64).collect()),
-            )
-            .with("vx", C::F64(self.velocity.iter().map(|v| v.x).collect()))
-            .with("vy", C::F64(self.velocity.iter().map(|v| v.y).collect()))
-            .with("force", C::F64(self.force.clone()))
+    /// The configuration as a particle frame: discs in the plane z = 0 (vz = 0), type =
+    /// species index + 1, cell W × piston height × the largest diameter (centred on z = 0),
+    /// not periodic; extra column `force_magnitude` (|F_T|, N).
+    pub fn frame(&self) -> ParticleFrame {
+        let thickness = self.diameter.iter().fold(0.0, |a: f64, d| a.max(*d));
+        let lo = Vector3::new(0.0, 0.0, -thickness / 2.0);
+        let hi = Vector3::new(self.width, self.piston, thickness / 2.0);
+        let kind = self.species.iter().map(|s| *s as u32 + 1).collect();
+        let mut frame = ParticleFrame::new(self.time, Cell::aligned(lo, hi), kind);
+        frame.position = self.position.iter().map(|p| p.push(0.0)).collect();
+        frame.velocity = self.velocity.iter().map(|v| v.push(0.0)).collect();
+        frame.radius = self.diameter.iter().map(|d| d / 2.0).collect();
+        frame.mass = self.mass.clone();
+        frame.with(Property::scalar("force_magnitude", "N", self.force.clone()))
     }
 
-    /// Extended XYZ text (one frame; z = 0; the cell spans W × piston height).
-    pub fn extended_xyz(&self) -> String {
-        let mut text = format!(
-            "{}\nLattice=\"{:e} 0 0 0 {:e} 0 0 0 1\" Origin=\"0 0 -0.5\" pbc=\"F F F\" \
-             Properties=species:I:1:pos:R:3:diameter:R:1:velo:R:3:force:R:1 \
-             Time={:e} label={}\n",
-            self.position.len(),
-            self.width,
-            self.piston,
-            self.time,
-            self.label
-        );
-        for i in 0..self.position.len() {
-            let (p, v) = (self.position[i], self.velocity[i]);
-            let _ = writeln!(
-                text,
-                "{} {:e} {:e} 0 {:e} {:e} {:e} 0 {:e}",
-                self.species[i], p.x, p.y, self.diameter[i], v.x, v.y, self.force[i]
-            );
-        }
-        text
-    }
-
-    /// Writes `<dir>/<stem>.parquet` and `<dir>/<stem>.xyz` atomically.
+    /// Writes `<dir>/<stem>.xyz`, `.dump`, `.vtk` and `.parquet` atomically (see
+    /// [`crate::output::particles`]); creates `dir`.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<()> {
-        std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
-        write_parquet(&dir.join(format!("{stem}.parquet")), &self.table())?;
-        write_atomic(
-            &dir.join(format!("{stem}.xyz")),
-            self.extended_xyz().as_bytes(),
-        )
+        self.frame().write_all(dir, stem)
     }
 }
 

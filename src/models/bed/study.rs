@@ -11,7 +11,7 @@ use super::protocol::run_cycle;
 use super::report::cycle_figures;
 use super::BedOutcome;
 use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
-use crate::output::{atomic, plot};
+use crate::output::{atomic, particles, plot};
 use crate::study::model::{
     Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
 };
@@ -47,10 +47,16 @@ impl BedModel {
         }
     }
 
-    /// Snapshots (Parquet + extended XYZ), the damper fits and the cycle figures.
+    /// Snapshots (one set of particle files per moment, plus all moments in `cycle.xyz`),
+    /// the damper fits and the cycle figures.
     fn write_artifacts(&self, o: &BedOutcome, dir: &Path) -> Result<()> {
+        let snaps = dir.join("snapshots");
         for s in &o.snapshots {
-            s.write(&dir.join("snapshots"), &s.label)?;
+            s.write(&snaps, &s.label)?;
+        }
+        if !o.snapshots.is_empty() {
+            let frames: Vec<_> = o.snapshots.iter().map(|s| s.frame()).collect();
+            particles::write_xyz_frames(&snaps.join("cycle.xyz"), &frames)?;
         }
         if let Some(fits) = &o.damper_fits {
             atomic::write_json_atomic(&dir.join("damper_fits.json"), &fits.json())?;

@@ -1,50 +1,39 @@
-//! Snapshot writers (sinks): extended XYZ (OVITO, ASE) and Parquet, one file each per time.
+//! Snapshot writers (sinks): the cloud as a particle frame (extended XYZ, LAMMPS dump, legacy
+//! VTK and Parquet, see [`crate::output::particles`]) and a side view PNG, one set per time.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
 use super::cloud::{centre_of_mass, Cloud};
-use crate::output::atomic::write_atomic;
+use crate::output::particles::{Cell, ParticleFrame, Property};
 use crate::output::plot::{render_png_sized, Figure, Series, SeriesStyle};
-use crate::output::table::{write_parquet, ColumnData, Table};
 use crate::Result;
 
-/// Extended XYZ text of a cloud at time `time` (s): species, position (m), velocity (m/s),
-/// radius (m), charge per mass (C/kg), spin (rad/s).
-pub fn extended_xyz(cloud: &Cloud, time: f64) -> String {
-    let mut text = format!(
-        "{}\nProperties=species:S:1:pos:R:3:velo:R:3:radius:R:1:charge_per_mass:R:1:spin:R:3 Time={time:e} pbc=\"F F F\"\n",
-        cloud.len()
-    );
-    for i in 0..cloud.len() {
-        let (r, v, w) = (cloud.positions[i], cloud.velocities[i], cloud.spins[i]);
-        let _ = writeln!(
-            text,
-            "P {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e}",
-            r.x, r.y, r.z, v.x, v.y, v.z, cloud.radius, cloud.charge_per_mass[i], w.x, w.y, w.z
-        );
-    }
-    text
-}
-
-/// The same snapshot as a table (one row per particle).
-pub fn table(cloud: &Cloud) -> Table {
-    let col = |f: &dyn Fn(usize) -> f64| ColumnData::F64((0..cloud.len()).map(f).collect());
-    Table::new()
-        .with("id", ColumnData::U64((0..cloud.len() as u64).collect()))
-        .with("x_m", col(&|i| cloud.positions[i].x))
-        .with("y_m", col(&|i| cloud.positions[i].y))
-        .with("z_m", col(&|i| cloud.positions[i].z))
-        .with("vx_m_per_s", col(&|i| cloud.velocities[i].x))
-        .with("vy_m_per_s", col(&|i| cloud.velocities[i].y))
-        .with("vz_m_per_s", col(&|i| cloud.velocities[i].z))
-        .with("radius_m", col(&|_| cloud.radius))
-        .with(
-            "charge_per_mass_C_per_kg",
-            col(&|i| cloud.charge_per_mass[i]),
-        )
+/// The cloud at time `time` (s) as a particle frame: type 1 for particles with q/m ≥ 0,
+/// type 2 for q/m < 0; the cell is the bounding box of the spheres (not periodic); extra
+/// columns `charge_per_mass` (C/kg) and `angular_velocity` (rad/s).
+pub fn frame(cloud: &Cloud, time: f64) -> ParticleFrame {
+    let radius = vec![cloud.radius; cloud.len()];
+    let cell = Cell::bounding(&cloud.positions, &radius);
+    let kind = cloud
+        .charge_per_mass
+        .iter()
+        .map(|q| if *q < 0.0 { 2 } else { 1 })
+        .collect();
+    let mut frame = ParticleFrame::new(time, cell, kind);
+    frame.position = cloud.positions.clone();
+    frame.velocity = cloud.velocities.clone();
+    frame.radius = radius;
+    frame.mass = vec![cloud.mass; cloud.len()];
+    let q = cloud.charge_per_mass.clone();
+    frame
+        .with(Property::scalar("charge_per_mass", "C_per_kg", q))
+        .with(Property::vector(
+            "angular_velocity",
+            "rad_per_s",
+            cloud.spins.clone(),
+        ))
 }
 
 /// Side view of the cloud: particle centres projected on the plane spanned by the field axis
@@ -93,15 +82,12 @@ pub fn side_view(cloud: &Cloud, axis: &Vector3<f64>, time: f64) -> Figure {
     }
 }
 
-/// Writes `snapshot_<k>_t<time>s.xyz`, `.parquet` and a side view `.png` into `dir` (which
-/// must exist); `axis` is the unit field axis.
+/// Writes `snapshot.<k>.xyz`, `.dump`, `.vtk`, `.parquet` (k zero-padded to three digits; see
+/// [`crate::output::particles`]) and a side view `.png` into `dir` (which must exist); `axis`
+/// is the unit field axis.
 pub fn write(dir: &Path, k: usize, time: f64, cloud: &Cloud, axis: &Vector3<f64>) -> Result<()> {
-    let stem = format!("snapshot_{k:03}_t{time:.4}s");
-    write_atomic(
-        &dir.join(format!("{stem}.xyz")),
-        extended_xyz(cloud, time).as_bytes(),
-    )?;
-    write_parquet(&dir.join(format!("{stem}.parquet")), &table(cloud))?;
+    let stem = format!("snapshot.{k:03}");
+    frame(cloud, time).write_all(dir, &stem)?;
     render_png_sized(
         &dir.join(format!("{stem}.png")),
         &side_view(cloud, axis, time),

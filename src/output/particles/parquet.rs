@@ -1,0 +1,43 @@
+//! The Parquet table of a frame (polars): one row per particle, column names with SI unit
+//! suffixes: `time_s`, `id`, `species`, `type`, `x_m`, `y_m`, `z_m`, `radius_m`,
+//! `vx_m_per_s`, `vy_m_per_s`, `vz_m_per_s`, `mass_kg`, then each extra scalar `s` as `s_<unit>` and each
+//! extra vector `v` as `v_x_<unit>`, `v_y_<unit>`, `v_z_<unit>`.
+
+use nalgebra::Vector3;
+
+use super::{ParticleFrame, Values};
+use crate::output::table::{ColumnData as C, Table};
+
+/// The per-particle table of a frame.
+pub fn table(frame: &ParticleFrame) -> Table {
+    let n = frame.len();
+    let mut t = Table::new()
+        .with("time_s", C::F64(vec![frame.time; n]))
+        .with("id", C::U64(frame.id.clone()))
+        .with("species", C::Str(frame.species.clone()))
+        .with(
+            "type",
+            C::I64(frame.kind.iter().map(|k| *k as i64).collect()),
+        );
+    push_vector(&mut t, &["x_m", "y_m", "z_m"], &frame.position);
+    t.push("radius_m", C::F64(frame.radius.clone()));
+    let v = ["vx_m_per_s", "vy_m_per_s", "vz_m_per_s"];
+    push_vector(&mut t, &v, &frame.velocity);
+    t.push("mass_kg", C::F64(frame.mass.clone()));
+    for p in &frame.extra {
+        match &p.values {
+            Values::Scalar(v) => t.push(&format!("{}_{}", p.name, p.unit), C::F64(v.clone())),
+            Values::Vector(v) => {
+                let names = ["x", "y", "z"].map(|a| format!("{}_{a}_{}", p.name, p.unit));
+                push_vector(&mut t, &names.each_ref().map(String::as_str), v);
+            }
+        }
+    }
+    t
+}
+
+fn push_vector(t: &mut Table, names: &[&str; 3], values: &[Vector3<f64>]) {
+    for (k, name) in names.iter().enumerate() {
+        t.push(name, C::F64(values.iter().map(|v| v[k]).collect()));
+    }
+}
