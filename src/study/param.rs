@@ -396,6 +396,16 @@ impl ParamSpec {
     }
 }
 
+/// Shorthand for [`ParamSpec::quantity`] in the models' parameter tables.
+pub const fn quantity(
+    name: &'static str,
+    dim: Dimension,
+    unit: &'static str,
+    doc: &'static str,
+) -> ParamSpec {
+    ParamSpec::quantity(name, dim, unit, doc)
+}
+
 /// A TOML value quoted for a message (strings with their quotes).
 fn shown(v: &toml::Value) -> String {
     match v {

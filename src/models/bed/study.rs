@@ -15,7 +15,7 @@ use crate::output::{atomic, particles, plot};
 use crate::study::model::{
     Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
 };
-use crate::study::param::Bounds;
+use crate::study::param::{quantity as q, Bounds};
 use crate::units::{Dimension as D, MU0};
 use crate::{choice_param, number_param, optional_param, Error, Result};
 
@@ -81,11 +81,6 @@ impl BedModel {
 }
 
 type BedParam = Param<BedModel, BedParams>;
-
-/// A plain quantity with its display unit and range.
-const fn q(name: &'static str, dim: D, unit: &'static str, doc: &'static str) -> ParamSpec {
-    ParamSpec::quantity(name, dim, unit, doc)
-}
 
 /// A reach in units of D_1, or an absolute length.
 const fn reach(name: &'static str, doc: &'static str) -> ParamSpec {

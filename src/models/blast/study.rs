@@ -7,7 +7,7 @@ use super::{run, snapshot, BlastOutcome};
 use crate::study::model::{
     Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
 };
-use crate::study::param::Bounds;
+use crate::study::param::{quantity as q, Bounds};
 use crate::units::{parse_quantity, Dimension as D, MU0};
 use crate::{choice_param, number_param, Error, Result};
 
@@ -16,10 +16,6 @@ use crate::{choice_param, number_param, Error, Result};
 pub struct BlastModel;
 
 type BlastParam = Param<BlastModel, BlastParams>;
-
-const fn q(name: &'static str, dim: D, unit: &'static str, doc: &'static str) -> ParamSpec {
-    ParamSpec::quantity(name, dim, unit, doc)
-}
 
 const fn num(name: &'static str, doc: &'static str) -> ParamSpec {
     ParamSpec::new(name, K::Number, doc)
