@@ -29,7 +29,7 @@ fn main() -> magopt::Result<()> {
         packing.steps,
         started.elapsed().as_secs_f64()
     );
-    let outcome = dem::align(&params, &packing);
+    let outcome = dem::align(&params, &packing, None);
     println!(
         "DEM: status {:?}, tau {:?} s, tau90 {:?} s, A_end {:.4}, steps {}, sweeps {}, unconverged {}, phi {:?}, applied/nominal force {:?}/{:?} N, {:.2} s wall",
         outcome.status.label(), outcome.alignment_time_s, outcome.alignment_time_90_s, outcome.final_alignment,

@@ -65,7 +65,7 @@ fn free_particle_rotates_as_the_ensemble_ode_with_second_order_convergence() {
         params.pressure = 0.0;
         params.numerics.rotation_step = step;
         params.target = 0.99;
-        let out = dem::align(&params, &single_particle(theta0));
+        let out = dem::align(&params, &single_particle(theta0), None);
         let (t, a) = *out.series.iter().find(|(_, a)| *a > 0.9).unwrap();
         errors.push((a - ode_cos_theta(&params, theta0, t)).abs());
     }
@@ -168,7 +168,9 @@ fn frictionless_dem_matches_the_ensemble_within_replicate_noise() {
     let taus: Vec<f64> = (1..=4)
         .map(|seed| {
             let packing = Packing::generate(&params.packing(), seed).unwrap();
-            dem::align(&params, &packing).alignment_time_s.unwrap()
+            dem::align(&params, &packing, None)
+                .alignment_time_s
+                .unwrap()
         })
         .collect();
     let mean = taus.iter().sum::<f64>() / 4.0;
@@ -189,7 +191,7 @@ fn alignment_converges_in_time_step_and_friction_regularization() {
         let mut p = params.clone();
         p.numerics.rotation_step = step;
         p.numerics.friction_regularization = reg;
-        let out = dem::align(&p, &packing);
+        let out = dem::align(&p, &packing, None);
         (
             out.alignment_time_s.unwrap(),
             out.alignment_time_90_s.unwrap(),

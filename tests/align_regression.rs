@@ -113,7 +113,9 @@ fn friction_slows_alignment_under_pressure() {
         model
             .set(&mut setup, "friction", &Value::Number(mu), "friction")
             .unwrap();
-        dem::align(&setup.params, packing).alignment_time_s.unwrap()
+        dem::align(&setup.params, packing, None)
+            .alignment_time_s
+            .unwrap()
     };
     let (free, rough) = (tau(0.0), tau(0.5));
     assert!(

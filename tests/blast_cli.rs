@@ -48,20 +48,19 @@ fn out_writes_tables_and_snapshots() {
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
-    assert_eq!(snaps.iter().filter(|s| s.ends_with(".xyz")).count(), 3);
+    // start, middle, end, and all three in trajectory.xyz.
+    assert_eq!(snaps.iter().filter(|s| s.ends_with(".xyz")).count(), 4);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".parquet")).count(), 3);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".png")).count(), 3);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".dump")).count(), 3);
     assert_eq!(snaps.iter().filter(|s| s.ends_with(".vtk")).count(), 3);
-    assert!(snaps.iter().any(|s| s == "snapshot.000.xyz"), "{snaps:?}");
-    let xyz = std::fs::read_dir(dir.join("snapshots"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|e| e == "xyz"))
-        .unwrap();
-    let text = std::fs::read_to_string(xyz).unwrap();
-    assert_eq!(text.lines().next(), Some("100"));
-    assert_eq!(text.lines().count(), 102);
+    for moment in ["start", "middle", "end"] {
+        let text = std::fs::read_to_string(dir.join(format!("snapshots/{moment}.xyz"))).unwrap();
+        assert_eq!(text.lines().next(), Some("100"));
+        assert_eq!(text.lines().count(), 102);
+    }
+    let trajectory = std::fs::read_to_string(dir.join("snapshots/trajectory.xyz")).unwrap();
+    assert_eq!(trajectory.lines().count(), 3 * 102);
     std::fs::remove_dir_all(&dir).ok();
 }
 

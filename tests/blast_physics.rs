@@ -224,9 +224,9 @@ fn default_example_elongates_along_b_and_stays_spherical_without_field() {
     let mut p = BlastParams::source_example();
     p.particles = 300;
     p.duration = 0.5;
-    let on = magopt::models::blast::run(&p, 1, &[], &|_| {}).unwrap();
+    let on = magopt::models::blast::run(&p, 1, &|_| {}, None).unwrap();
     p.field_strength = 0.0;
-    let off = magopt::models::blast::run(&p, 1, &[], &|_| {}).unwrap();
+    let off = magopt::models::blast::run(&p, 1, &|_| {}, None).unwrap();
     let (e_on, e_off) = (on.last().envelope, off.last().envelope);
     assert!(e_on.aspect_ratio() > 1.5, "{e_on:?}");
     assert!(e_on.extent_across < 1.05 * p.cloud_radius, "{e_on:?}");

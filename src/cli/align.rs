@@ -160,6 +160,7 @@ pub fn run_optimize(db: &MaterialDb, matches: &ArgMatches, args: &OptimizeArgs) 
         replicates,
         args.seed,
         Some(&spec),
+        None,
         "optimize-field",
         &command,
     )?;

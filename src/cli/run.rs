@@ -7,11 +7,12 @@ use std::path::PathBuf;
 
 use super::params::{self, Given};
 use super::{command_line, progress, EXIT_RUN_UNSUCCESSFUL};
+use crate::output::snapshots::{Format, Schedule};
 use crate::study::model::{RunStatus, StudyModel};
 use crate::study::records::{RunRecord, VERSION};
 use crate::study::runner;
 use crate::study::spec::Study;
-use crate::Result;
+use crate::{Error, Result};
 
 /// Options of every single run besides the model's parameters.
 #[derive(Debug, Args)]
@@ -26,6 +27,61 @@ pub struct RunArgs {
     /// provenance.json and the run's own files (snapshots, figures).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// With --out: also write a particle frame every K steps (step 0 included) into
+    /// DIR/snapshots/frame.<k>.* (at most 10000 frames).
+    #[arg(long, allow_hyphen_values = true, value_name = "K")]
+    pub snapshot_every: Option<String>,
+    /// With --out: also write particle frames at these simulated times, comma-separated
+    /// (s, ms, us, min, h; bare number: s), each at the first step at or after it.
+    #[arg(long, allow_hyphen_values = true, value_name = "TIMES")]
+    pub snapshot_times: Option<String>,
+    /// With --out: formats of every particle frame, comma-separated: xyz (extended XYZ), dump
+    /// (LAMMPS), vtk (legacy VTK), parquet [default: all four].
+    #[arg(long, value_name = "FORMATS")]
+    pub snapshot_format: Option<String>,
+}
+
+impl RunArgs {
+    /// The snapshot schedule the flags ask for (None: no snapshot flag given).
+    fn schedule(&self) -> Result<Option<Schedule>> {
+        let given = [
+            &self.snapshot_every,
+            &self.snapshot_times,
+            &self.snapshot_format,
+        ];
+        let Some(flag) = given.iter().position(|g| g.is_some()) else {
+            return Ok(None);
+        };
+        if self.out.is_none() {
+            let name = ["--snapshot-every", "--snapshot-times", "--snapshot-format"][flag];
+            return Err(Error::input(format!(
+                "{name}: snapshots need --out DIR (where the frames go)"
+            )));
+        }
+        let mut schedule = Schedule::default();
+        if let Some(k) = &self.snapshot_every {
+            schedule.every = Some(
+                k.trim()
+                    .parse::<u64>()
+                    .ok()
+                    .filter(|k| *k >= 1)
+                    .ok_or_else(|| {
+                        Error::input(format!(
+                            "--snapshot-every: '{k}' is not allowed (need a step count ≥ 1)"
+                        ))
+                    })?,
+            );
+        }
+        if let Some(t) = &self.snapshot_times {
+            schedule.times = Schedule::parse_times(t)
+                .map_err(|e| Error::input(format!("--snapshot-times: {e}")))?;
+        }
+        if let Some(f) = &self.snapshot_format {
+            schedule.formats = Format::parse_list(f)
+                .map_err(|e| Error::input(format!("--snapshot-format: {e}")))?;
+        }
+        Ok(Some(schedule))
+    }
 }
 
 /// Runs the model with the parameters given in `matches` (plus `extra`, from shorthand
@@ -46,7 +102,17 @@ pub fn single<M: StudyModel>(
     }
     let (params, values) = params::setup(model, &given)?;
     let command = command_line();
-    let study = Study::one_point(model, &values, 1, args.seed, None, model.name(), &command)?;
+    let schedule = args.schedule()?;
+    let study = Study::one_point(
+        model,
+        &values,
+        1,
+        args.seed,
+        None,
+        schedule.as_ref(),
+        model.name(),
+        &command,
+    )?;
     let bar = progress::run();
     let record = runner::single(
         model,

@@ -9,4 +9,5 @@ pub mod guard;
 pub mod particles;
 pub mod plot;
 pub mod shapes;
+pub mod snapshots;
 pub mod table;

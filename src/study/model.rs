@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub use super::param::{Param, ParamKind, ParamSpec, Value};
+pub use crate::output::snapshots::{Recorder, RunSpan, Schedule};
 use crate::{Error, Result};
 
 /// How a run ended.
@@ -75,14 +76,16 @@ impl RunStatus {
     }
 }
 
-/// What a run may use besides its parameters: a progress report and a directory for the
-/// files it writes itself (snapshots, figures).
+/// What a run may use besides its parameters: a progress report, a directory for the files
+/// it writes itself (snapshots, figures) and the particle frames it writes there.
 #[derive(Clone, Copy)]
 pub struct RunContext<'a> {
     /// Called now and then with the fraction of the run done, in [0, 1].
     pub progress: &'a (dyn Fn(f64) + Sync),
     /// Where the run writes its own files, if anywhere.
     pub artifacts: Option<&'a Path>,
+    /// Frames to write besides the model's own moments, and the formats of all of them.
+    pub snapshots: &'a Schedule,
 }
 
 impl RunContext<'static> {
@@ -90,7 +93,15 @@ impl RunContext<'static> {
     pub const QUIET: RunContext<'static> = RunContext {
         progress: &|_| {},
         artifacts: None,
+        snapshots: &Schedule::NONE,
     };
+}
+
+impl RunContext<'_> {
+    /// A snapshot recorder when the run writes files.
+    pub fn recorder(&self) -> Option<Recorder<'_>> {
+        self.artifacts.map(|dir| Recorder::new(dir, self.snapshots))
+    }
 }
 
 /// What one run reports to the runner.
@@ -147,6 +158,23 @@ pub trait StudyModel: Sync + Sized + 'static {
     /// species), so their debug text is complete.
     fn inputs(&self, params: &Self::Params) -> String {
         format!("{params:?}")
+    }
+
+    /// What is known before a run starts about its end time and step count, to check a
+    /// snapshot schedule against; Err (why) if the run has no particles to snapshot.
+    fn run_span(&self, _params: &Self::Params) -> std::result::Result<RunSpan, String> {
+        Ok(RunSpan::default())
+    }
+
+    /// Checks a snapshot schedule against a run before it starts (one-line error naming the
+    /// schedule and what is allowed).
+    fn check_schedule(&self, params: &Self::Params, schedule: &Schedule) -> Result<()> {
+        if schedule.is_empty() {
+            return Ok(());
+        }
+        self.run_span(params)
+            .and_then(|span| schedule.check(&span))
+            .map_err(|e| Error::input(format!("snapshots: {e}")))
     }
 
     /// Checks a complete parameter set: every declared value within its range, then the

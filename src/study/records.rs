@@ -84,6 +84,12 @@ pub fn set_aside(dir: &Path, path: &Path, folder: &str, why: &str) -> Result<Str
     std::fs::create_dir_all(&aside).map_err(|e| Error::io(&aside, e))?;
     let name = path.file_name().unwrap_or_default();
     std::fs::rename(path, aside.join(name)).map_err(|e| Error::io(path, e))?;
+    // The run's own files (runs/<id>/, snapshots) go with it.
+    let files = path.with_extension("");
+    if files.is_dir() {
+        let to = aside.join(files.file_name().unwrap_or_default());
+        std::fs::rename(&files, &to).map_err(|e| Error::io(&files, e))?;
+    }
     Ok(format!(
         "{} {why}: moved to runs/{folder}/",
         name.to_string_lossy()

@@ -4,11 +4,12 @@
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
-use super::model::{RunContext, StudyModel};
+use super::model::{RunContext, Schedule, StudyModel};
 use super::records::{self, RunRecord};
 use super::spec::{RunSpec, Study};
 use crate::output::atomic::prepare_output_dir;
 use crate::output::guard::DirLock;
+use crate::output::snapshots::check_writable;
 use crate::{Error, Result};
 
 /// A slice of the run list for job arrays: runs with index % count == index_of_shard.
@@ -213,13 +214,18 @@ pub fn single<M: StudyModel>(
     let _lock = match out {
         Some(dir) => {
             prepare_output_dir(dir)?;
+            if model.run_span(&params).is_ok() {
+                check_writable(&dir.join("snapshots"))?;
+            }
             Some(DirLock::acquire(dir)?)
         }
         None => None,
     };
+    let all_formats = Schedule::default();
     let context = RunContext {
         progress,
         artifacts: out,
+        snapshots: study.snapshots.as_ref().unwrap_or(&all_formats),
     };
     let record = load_or_run(model, &run, &params, out, false, &context)?;
     if let Some(dir) = out {
@@ -263,7 +269,16 @@ pub fn sweep<M: StudyModel>(
         .map(|run| {
             let params = study.params_at(model, &run.values)?;
             let out = Some(options.out.as_path());
-            let record = load_or_run(model, run, &params, out, false, &RunContext::QUIET)?;
+            let artifacts = run_files(&options.out, run);
+            let context = match &study.snapshots {
+                Some(schedule) => RunContext {
+                    artifacts: Some(&artifacts),
+                    snapshots: schedule,
+                    ..RunContext::QUIET
+                },
+                None => RunContext::QUIET,
+            };
+            let record = load_or_run(model, run, &params, out, false, &context)?;
             tick();
             Ok(record)
         })
@@ -289,6 +304,11 @@ pub fn sweep<M: StudyModel>(
         Some(resume),
     )?;
     Ok(report)
+}
+
+/// Where a sweep's run writes its own files (snapshots): `runs/<id>/`.
+pub fn run_files(out: &Path, run: &RunSpec) -> PathBuf {
+    out.join("runs").join(&run.id)
 }
 
 /// Merges the runs saved in several result directories of the same study (shards) into `out`.

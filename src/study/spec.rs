@@ -21,7 +21,8 @@
 
 use serde::Deserialize;
 
-use super::model::{ParamKind, ParamSpec, StudyModel, Value};
+use super::model::{ParamKind, ParamSpec, Schedule, StudyModel, Value};
+use crate::output::snapshots::Format;
 use crate::{Error, Result};
 
 #[derive(Debug, Deserialize)]
@@ -35,6 +36,15 @@ struct RawStudy {
     base: Option<toml::Table>,
     sweep: Option<toml::Table>,
     optimize: Option<RawOptimize>,
+    snapshots: Option<RawSnapshots>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSnapshots {
+    every: Option<i64>,
+    times: Option<Vec<String>>,
+    formats: Option<Vec<String>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -98,6 +108,9 @@ pub struct Study<M: StudyModel> {
     pub axes: Vec<Axis>,
     /// The optimization, if any.
     pub optimize: Option<OptimizeSpec>,
+    /// The `[snapshots]` table: every run writes its particle frames (its model's own moments
+    /// and these) into `runs/<id>/snapshots/`.
+    pub snapshots: Option<Schedule>,
     /// The file's text (copied into results).
     pub text: String,
 }
@@ -164,6 +177,7 @@ impl<M: StudyModel> Study<M> {
             .map(|o| optimize(model, o))
             .transpose()
             .map_err(at)?;
+        let snapshots = raw.snapshots.map(snapshots).transpose().map_err(at)?;
         let name = match raw.name {
             Some(name) => plain_name(&name).map_err(at)?,
             None => std::path::Path::new(origin)
@@ -188,6 +202,7 @@ impl<M: StudyModel> Study<M> {
             base_values,
             axes,
             optimize,
+            snapshots,
             text: text.to_string(),
         };
         let points = study
@@ -209,12 +224,14 @@ impl<M: StudyModel> Study<M> {
     /// free parameter. Its text is written first and parsed back, so the saved study.toml is
     /// exactly what ran and `magopt sweep`/`optimize` on it repeat the run. `origin` says in a
     /// comment where it came from.
+    #[allow(clippy::too_many_arguments)]
     pub fn one_point(
         model: &M,
         values: &[(String, Value)],
         replicates: usize,
         seed: u64,
         optimize: Option<&OptimizeSpec>,
+        snapshots: Option<&Schedule>,
         name: &str,
         origin: &str,
     ) -> Result<Self> {
@@ -247,6 +264,9 @@ impl<M: StudyModel> Study<M> {
                 o.iterations,
                 o.band
             );
+        }
+        if let Some(schedule) = snapshots {
+            text += &snapshots_toml(schedule);
         }
         Self::parse(model, &text, name)
     }
@@ -296,7 +316,12 @@ impl<M: StudyModel> Study<M> {
         let mut runs: Vec<RunSpec> = Vec::with_capacity(points.len() * self.replicates);
         let mut seen = std::collections::HashMap::new();
         for (p, values) in points.into_iter().enumerate() {
-            let inputs = model.inputs(&self.params_at(model, &values)?);
+            let params = self.params_at(model, &values)?;
+            let mut inputs = model.inputs(&params);
+            if let Some(schedule) = &self.snapshots {
+                model.check_schedule(&params, schedule)?;
+                inputs += &format!(" snapshots: {schedule:?}");
+            }
             if let Some(q) = seen.insert(inputs.clone(), p) {
                 return Err(Error::input(format!(
                     "{}: grid points {q} and {p} are the same run (their values are equal after \
@@ -329,6 +354,61 @@ pub fn run_id(model: &str, inputs: &str, seed: u64) -> String {
         (h ^ b as u64).wrapping_mul(0x100000001b3)
     });
     format!("{hash:016x}")
+}
+
+/// The `[snapshots]` table: `every` (steps ≥ 1), `times` (quantities), `formats` (xyz, dump,
+/// vtk, parquet; all four if absent).
+fn snapshots(raw: RawSnapshots) -> Result<Schedule> {
+    let every = match raw.every {
+        Some(k) if k >= 1 => Some(k as u64),
+        Some(k) => {
+            return Err(Error::input(format!(
+                "snapshots.every: {k} is not allowed (need a step count ≥ 1)"
+            )))
+        }
+        None => None,
+    };
+    let times = match raw.times {
+        Some(list) => Schedule::parse_times(&list.join(","))
+            .map_err(|e| Error::input(format!("snapshots.times: {e}")))?,
+        None => Vec::new(),
+    };
+    let formats = match raw.formats {
+        Some(list) if list.is_empty() => return Err(Error::input(
+            "snapshots.formats: [] is not allowed (need one or more of xyz, dump, vtk, parquet)",
+        )),
+        Some(list) => Format::parse_list(&list.join(","))
+            .map_err(|e| Error::input(format!("snapshots.formats: {e}")))?,
+        None => Format::ALL.to_vec(),
+    };
+    Ok(Schedule {
+        every,
+        times,
+        formats,
+    })
+}
+
+/// A schedule as a `[snapshots]` table that [`snapshots`] reads back exactly.
+fn snapshots_toml(schedule: &Schedule) -> String {
+    let mut text = String::from("\n[snapshots]\n");
+    if let Some(k) = schedule.every {
+        text += &format!("every = {k}\n");
+    }
+    if !schedule.times.is_empty() {
+        let times: Vec<String> = schedule
+            .times
+            .iter()
+            .map(|t| format!("\"{t:?} s\""))
+            .collect();
+        text += &format!("times = [{}]\n", times.join(", "));
+    }
+    let formats: Vec<String> = schedule
+        .formats
+        .iter()
+        .map(|f| format!("\"{}\"", f.extension()))
+        .collect();
+    text += &format!("formats = [{}]\n", formats.join(", "));
+    text
 }
 
 /// Most runs one study may hold (grid points × replicates).

@@ -52,7 +52,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let settle_s = started.elapsed().as_secs_f64();
             let settle_steps: usize = packing.steps.iter().sum();
             params.max_time = (args.max_steps as f64 - 0.5) * dem::time_step_s(&params, &packing);
-            let outcome = pool.install(|| dem::align(&params, &packing));
+            let outcome = pool.install(|| dem::align(&params, &packing, None));
             let settle_rate = (settle_steps * n) as f64 / settle_s;
             let align_rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
             let peak_mb = peak_rss_mb();

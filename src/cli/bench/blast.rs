@@ -44,7 +44,7 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                 }
                 p.validate()?;
                 reset_peak_rss();
-                let o = pool.install(|| run_blast(&p, 1, &[], &|_| {}))?;
+                let o = pool.install(|| run_blast(&p, 1, &|_| {}, None))?;
                 let label = if interacting { "interacting" } else { "free" };
                 let rate = (o.stats.steps * n) as f64 / o.wall_time_s;
                 println!(

@@ -9,7 +9,8 @@ use super::dem::{self, Packing};
 use super::{run_ensemble, AlignOutcome, AlignParams, ModelKind, PressureMode, Status};
 use crate::materials::MaterialDb;
 use crate::study::model::{
-    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
+    Param, ParamKind as K, ParamSpec, Recorder, RunContext, RunResult, RunSpan, RunStatus,
+    StudyModel, Value,
 };
 use crate::study::param::Bounds;
 use crate::units::{si_per_unit, Dimension as D};
@@ -233,6 +234,17 @@ impl AlignModel {
 
     /// One run as an outcome (the CLI's `align` and the tests use this directly).
     pub fn outcome(&self, setup: &AlignSetup, seed: u64) -> AlignOutcome {
+        self.recorded(setup, seed, None)
+    }
+
+    /// One run whose particle frames `recorder` writes (DEM only: the ensemble model has no
+    /// particles).
+    pub fn recorded(
+        &self,
+        setup: &AlignSetup,
+        seed: u64,
+        recorder: Option<&mut Recorder>,
+    ) -> AlignOutcome {
         match setup.model {
             ModelKind::Ensemble => run_ensemble(&setup.params),
             ModelKind::Dem => match self
@@ -240,7 +252,7 @@ impl AlignModel {
                 .get()
                 .expect("initialized")
             {
-                Ok(packing) => dem::align(&setup.params, packing),
+                Ok(packing) => dem::align(&setup.params, packing, recorder),
                 Err(reason) => AlignOutcome::failed(reason),
             },
         }
@@ -280,15 +292,35 @@ impl StudyModel for AlignModel {
         setup.params.validate()
     }
 
-    fn run(&self, setup: &AlignSetup, seed: u64, _: &RunContext) -> Result<RunResult> {
-        let o = self.outcome(setup, seed);
+    fn run_span(&self, setup: &AlignSetup) -> std::result::Result<RunSpan, String> {
+        match setup.model {
+            ModelKind::Dem => Ok(RunSpan {
+                end: Some(setup.params.max_time),
+                steps: None,
+            }),
+            ModelKind::Ensemble => {
+                Err("the ensemble model has no particles (particle frames need model = dem)".into())
+            }
+        }
+    }
+
+    fn run(&self, setup: &AlignSetup, seed: u64, context: &RunContext) -> Result<RunResult> {
+        let mut recorder = match setup.model {
+            ModelKind::Dem => context.recorder(),
+            ModelKind::Ensemble => None,
+        };
+        let o = self.recorded(setup, seed, recorder.as_mut());
+        let notes = match recorder {
+            Some(recorder) => recorder.finish()?,
+            None => Vec::new(),
+        };
         Ok(RunResult {
             status: match &o.status {
                 Status::Reached => RunStatus::Ok,
                 Status::NotReached => RunStatus::NotReached,
                 Status::Failed(r) => RunStatus::Failed(r.clone()),
             },
-            notes: Vec::new(),
+            notes,
             metrics: vec![
                 ("alignment_time_s".into(), o.alignment_time_s),
                 ("alignment_time_90_s".into(), o.alignment_time_90_s),

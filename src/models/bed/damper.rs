@@ -7,11 +7,9 @@
 //! heavy enough to crush the bed (discs closer than the allowed ratio, a centre through the
 //! piston) is a failed run.
 
-use std::time::Instant;
-
 use super::damper_fit::{fit_damper, FIT_SAMPLES};
 use super::integrator::{half_kick, kick_and_drift, Kick};
-use super::protocol::Simulation;
+use super::protocol::{recorded, Simulation};
 use super::{BedOutcome, BedParams};
 
 /// Piston height and velocity.
@@ -30,15 +28,11 @@ impl Piston {
 
 /// One damper run of (parameters, seed).
 pub fn run_damper(params: &BedParams, seed: u64, progress: &dyn Fn(f64)) -> BedOutcome {
-    let started = Instant::now();
-    let mut sim = Simulation::new(params, seed, progress);
-    let mut out = BedOutcome::new(&sim);
-    let result = damper(&mut sim, &mut out);
-    out.finish(&sim, result, started.elapsed().as_secs_f64());
-    out
+    recorded(params, seed, progress, None, damper).0
 }
 
-fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
+/// The damper protocol after the start: relaxation, free fall to rest, the released drop.
+pub fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     out.relaxation_speed = Some(sim.relax()?);
     let p = sim.params;
     let mut piston = Piston {
@@ -57,10 +51,12 @@ fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     }
     let rest = sim.state.piston;
     out.damper_rest_height = Some(rest);
+    sim.moment("rest", out);
     sim.state.piston += 0.2 * p.reference_diameter();
     piston.velocity = 0.0;
     sim.field.evaluate(&sim.particles, &sim.state);
     fall(sim, &mut piston, Some(rest))?;
+    sim.moment("end", out);
     match fit_damper(&sim.series, rest, p.reference_diameter(), FIT_SAMPLES) {
         Ok(fits) => out.damper_fits = Some(fits),
         Err(e) => out.warnings.push(format!("damper fits failed: {e}")),
@@ -81,7 +77,7 @@ const REST_SPEED: f64 = 1e-4;
 /// … and the bed's force within this fraction of the piston's weight;
 const REST_FORCE: f64 = 1e-2;
 /// it may last this many `damper_time`s.
-const REST_LIMIT: f64 = 20.0;
+pub const REST_LIMIT: f64 = 20.0;
 
 /// Without `rest`: the first fall, until the piston rests (returns whether it did). With
 /// `rest`: the second motion for `damper_time`, recording z(t) from the release.

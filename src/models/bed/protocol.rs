@@ -11,6 +11,7 @@ use super::observables::{mean_distance, min_piston_distance, min_wall_distance, 
 use super::params::BedParams;
 use super::state::{species_of, Geometry, Particles, State};
 use super::{BedOutcome, Series};
+use crate::output::snapshots::Recorder;
 
 /// A bed being integrated, with its run checks and records.
 pub struct Simulation<'a> {
@@ -38,6 +39,8 @@ pub struct Simulation<'a> {
     pub mean_diameter: f64,
     next_record: f64,
     progress: &'a dyn Fn(f64),
+    /// Writes the particle frames of a run with an output directory.
+    pub recorder: Option<Recorder<'a>>,
 }
 
 impl<'a> Simulation<'a> {
@@ -63,6 +66,29 @@ impl<'a> Simulation<'a> {
             mean_diameter,
             next_record: 0.0,
             progress,
+            recorder: None,
+        }
+    }
+
+    /// Writes a scheduled frame if one is due now.
+    fn offer_frame(&mut self) {
+        if let Some(mut recorder) = self.recorder.take() {
+            let step = self.steps as u64;
+            if recorder.due(step, self.state.time) {
+                recorder.frame(step, &self.snapshot("").frame());
+            }
+            self.recorder = Some(recorder);
+        }
+    }
+
+    /// A moment of the protocol: kept in `out` (with `params.snapshots`) and written.
+    pub fn moment(&mut self, label: &str, out: &mut BedOutcome) {
+        let snapshot = self.snapshot(label);
+        if let Some(recorder) = &mut self.recorder {
+            recorder.moment(label, self.steps as u64, &snapshot.frame());
+        }
+        if self.params.snapshots {
+            out.snapshots.push(snapshot);
         }
     }
 
@@ -106,7 +132,7 @@ impl<'a> Simulation<'a> {
         )
     }
 
-    /// Counters, extremes, checks and recording after a step.
+    /// Counters, extremes, checks, recording and particle frames after a step.
     pub fn after_step(&mut self) -> Result<(), String> {
         self.steps += 1;
         if self.steps > self.params.max_steps {
@@ -122,6 +148,7 @@ impl<'a> Simulation<'a> {
             self.record();
             self.next_record = self.state.time + self.params.record_interval();
         }
+        self.offer_frame();
         Ok(())
     }
 
@@ -264,15 +291,29 @@ struct Cycle {
 
 /// One full compression cycle of (parameters, seed). `progress` receives the simulated time.
 pub fn run_cycle(params: &BedParams, seed: u64, progress: &dyn Fn(f64)) -> BedOutcome {
-    let started = Instant::now();
-    let mut sim = Simulation::new(params, seed, progress);
-    let mut out = BedOutcome::new(&sim);
-    let result = cycle(&mut sim, &mut out);
-    out.finish(&sim, result, started.elapsed().as_secs_f64());
-    out
+    recorded(params, seed, progress, None, cycle).0
 }
 
-fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
+/// A run of `protocol` on a new bed whose frames `recorder` writes (handed back at the end).
+pub fn recorded<'a>(
+    params: &'a BedParams,
+    seed: u64,
+    progress: &'a dyn Fn(f64),
+    recorder: Option<Recorder<'a>>,
+    protocol: fn(&mut Simulation, &mut BedOutcome) -> Result<(), String>,
+) -> (BedOutcome, Option<Recorder<'a>>) {
+    let started = Instant::now();
+    let mut sim = Simulation::new(params, seed, progress);
+    sim.recorder = recorder;
+    sim.offer_frame();
+    let mut out = BedOutcome::new(&sim);
+    let result = protocol(&mut sim, &mut out);
+    out.finish(&sim, result, started.elapsed().as_secs_f64());
+    (out, sim.recorder)
+}
+
+/// The compression cycle after the start (protocol steps 2–4).
+pub fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     out.relaxation_speed = Some(sim.relax()?);
     sim.record();
     let compression_start = sim.state.time;
@@ -284,9 +325,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     );
     out.mean_distance_start = sim.last_mean_distance();
     out.record_structure(0, &sim.state.position);
-    if p.snapshots {
-        out.snapshots.push(sim.snapshot("compression-start"));
-    }
+    sim.moment("compression-start", out);
     let mut c = Cycle {
         max_force: sim.field.piston_force(),
         work: 0.0,
@@ -304,9 +343,7 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     sim.record();
     out.force_at_max_compression = Some(sim.field.piston_force());
     out.record_structure(1, &sim.state.position);
-    if p.snapshots {
-        out.snapshots.push(sim.snapshot("max-compression"));
-    }
+    sim.moment("max-compression", out);
     sim.advance(travel, false, &|t| (hf + v * t).min(h0), &mut track)?;
     if p.final_rest > 0.0 {
         sim.advance(p.final_rest, false, &|_| h0, &mut |_, _| {})?;
@@ -322,8 +359,6 @@ fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
     out.mean_distance_min = Some(c.min_mean_distance);
     out.mean_distance_end = sim.last_mean_distance();
     out.record_structure(2, &sim.state.position);
-    if p.snapshots {
-        out.snapshots.push(sim.snapshot("end"));
-    }
+    sim.moment("end", out);
     Ok(())
 }

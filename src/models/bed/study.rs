@@ -1,19 +1,20 @@
 //! `bed` (one compression cycle) and `damper` (the free-falling piston) as study models:
 //! named parameters with units, metrics and series.
 
-use super::damper::run_damper;
+use super::damper::{damper, REST_LIMIT};
 use std::path::Path;
 
 use super::params::{
     BedParams, Friction, FrictionScheme, Neighbors, Preset, Reach, Species, TiltOrder, WallLaw,
 };
-use super::protocol::run_cycle;
+use super::protocol::{cycle, recorded};
 use super::report::cycle_figures;
 use super::BedOutcome;
 use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
-use crate::output::{atomic, particles, plot};
+use crate::output::{atomic, plot};
 use crate::study::model::{
-    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
+    Param, ParamKind as K, ParamSpec, Recorder, RunContext, RunResult, RunSpan, RunStatus,
+    StudyModel, Value,
 };
 use crate::study::param::{quantity as q, Bounds};
 use crate::units::{Dimension as D, MU0};
@@ -47,17 +48,18 @@ impl BedModel {
         }
     }
 
-    /// Snapshots (one set of particle files per moment, plus all moments in `cycle.xyz`),
-    /// the damper fits and the cycle figures.
+    /// Latest simulated time a run can reach, s: the cycle's, or the damper's with its first
+    /// fall at its limit.
+    fn end_time(&self, p: &BedParams) -> f64 {
+        if self.damper {
+            p.relaxation_time + p.settle_time + (REST_LIMIT + 1.0) * p.damper_time
+        } else {
+            self.simulated_time(p)
+        }
+    }
+
+    /// The damper fits and the cycle figures (the particle frames are written as the run goes).
     fn write_artifacts(&self, o: &BedOutcome, dir: &Path) -> Result<()> {
-        let snaps = dir.join("snapshots");
-        for s in &o.snapshots {
-            s.write(&snaps, &s.label)?;
-        }
-        if !o.snapshots.is_empty() {
-            let frames: Vec<_> = o.snapshots.iter().map(|s| s.frame()).collect();
-            particles::write_xyz_frames(&snaps.join("cycle.xyz"), &frames)?;
-        }
         if let Some(fits) = &o.damper_fits {
             atomic::write_json_atomic(&dir.join("damper_fits.json"), &fits.json())?;
             plot::render_png(&dir.join("damper_fits.png"), &fits.figure())?;
@@ -72,11 +74,19 @@ impl BedModel {
 
     /// One run as a full outcome (tests and benchmarks use this directly).
     pub fn outcome(&self, params: &BedParams, seed: u64, progress: &dyn Fn(f64)) -> BedOutcome {
-        if self.damper {
-            run_damper(params, seed, progress)
-        } else {
-            run_cycle(params, seed, progress)
-        }
+        self.recorded(params, seed, progress, None).0
+    }
+
+    /// One run whose particle frames `recorder` writes as it goes.
+    pub fn recorded<'a>(
+        &self,
+        params: &'a BedParams,
+        seed: u64,
+        progress: &'a dyn Fn(f64),
+        recorder: Option<Recorder<'a>>,
+    ) -> (BedOutcome, Option<Recorder<'a>>) {
+        let protocol = if self.damper { damper } else { cycle };
+        recorded(params, seed, progress, recorder, protocol)
     }
 }
 
@@ -589,11 +599,23 @@ impl StudyModel for BedModel {
         p.validate()
     }
 
+    fn run_span(&self, p: &BedParams) -> std::result::Result<RunSpan, String> {
+        Ok(RunSpan {
+            end: Some(self.end_time(p)),
+            steps: None,
+        })
+    }
+
     fn run(&self, p: &BedParams, seed: u64, context: &RunContext) -> Result<RunResult> {
         let mut p = p.clone();
         p.snapshots = context.artifacts.is_some();
         let total = self.simulated_time(&p);
-        let o = self.outcome(&p, seed, &|t| (context.progress)((t / total).min(1.0)));
+        let progress = |t: f64| (context.progress)((t / total).min(1.0));
+        let (o, recorder) = self.recorded(&p, seed, &progress, context.recorder());
+        let mut notes = o.warnings.clone();
+        if let Some(recorder) = recorder {
+            notes.extend(recorder.finish()?);
+        }
         if let Some(dir) = context.artifacts {
             self.write_artifacts(&o, dir)?;
         }
@@ -602,7 +624,7 @@ impl StudyModel for BedModel {
                 Some(reason) => RunStatus::Failed(reason.clone()),
                 None => RunStatus::Ok,
             },
-            notes: o.warnings.clone(),
+            notes,
             metrics: o
                 .metrics()
                 .into_iter()

@@ -16,7 +16,7 @@ use crate::{Error, Result};
 pub const MAX_ATTEMPTS: usize = 200_000;
 
 /// The state of the cloud (SI). Equal spheres: one mass, radius and moment of inertia.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Cloud {
     /// Centres r_i, m.
     pub positions: Vec<Vector3<f64>>,

@@ -26,6 +26,8 @@ pub mod tree;
 
 use std::time::Instant;
 
+use crate::output::snapshots::Recorder;
+
 use cloud::Cloud;
 use explicit::Explicit;
 use interact::Interactor;
@@ -72,13 +74,33 @@ impl Simulation {
     /// Advances to time `t` (s). Explicit schemes take equal steps no longer than Δt; the
     /// trapezoidal scheme clips its adaptive step at `t`. Err: why the run failed.
     pub fn advance_to(&mut self, t: f64) -> Result<(), String> {
+        self.advance_observed(t, None, &mut |_, _, _| {})
+    }
+
+    /// [`advance_to`](Self::advance_to), calling `observe(steps, time, cloud)` after every
+    /// step of the trapezoidal scheme and, for the explicit schemes (which take their steps in
+    /// runs), after every step whose count is a multiple of `stride`.
+    pub fn advance_observed(
+        &mut self,
+        t: f64,
+        stride: Option<u64>,
+        observe: &mut dyn FnMut(u64, f64, &Cloud),
+    ) -> Result<(), String> {
         match &mut self.stepper {
             Stepper::Explicit(scheme, steps) => {
                 let span = t - self.time;
                 if span > 0.0 {
                     let n = (span / self.params.step.dt * (1.0 - 1e-12)).ceil().max(1.0) as usize;
-                    explicit::advance(&mut self.cloud, &self.params, *scheme, span / n as f64, n);
-                    *steps += n;
+                    let (h, start) = (span / n as f64, self.time);
+                    let mut done = 0;
+                    while done < n {
+                        let run = stride.map_or(n - done, |k| {
+                            (k as usize - *steps % k as usize).min(n - done)
+                        });
+                        explicit::advance(&mut self.cloud, &self.params, *scheme, h, run);
+                        (*steps, done) = (*steps + run, done + run);
+                        observe(*steps as u64, start + done as f64 * h, &self.cloud);
+                    }
                 }
                 self.time = t;
                 let finite = self
@@ -95,6 +117,7 @@ impl Simulation {
                 while t - self.time > 1e-12 * t.abs().max(1e-300) {
                     let h = stepper.step(&mut self.cloud, forces, t - self.time)?;
                     self.time += h;
+                    observe(stepper.stats.steps as u64, self.time, &self.cloud);
                 }
                 self.time = t;
                 Ok(())
@@ -179,8 +202,8 @@ pub struct BlastOutcome {
     pub failure: Option<String>,
     /// Samples at t = k T / samples, k = 0…samples (up to a failure).
     pub samples: Vec<Sample>,
-    /// Snapshots (time, cloud) at the requested times that were reached.
-    pub snapshots: Vec<(f64, Cloud)>,
+    /// The cloud where the run ended.
+    pub cloud: Cloud,
     /// Step counters.
     pub stats: StepStats,
     /// Wall-clock time of the integration, s.
@@ -194,58 +217,76 @@ impl BlastOutcome {
     }
 }
 
-/// One run: blast the cloud for `seed`, integrate to the duration, sample the observables at
-/// `samples` equal intervals and keep snapshots at `snapshot_times` (s); `progress` hears the
-/// fraction of the duration done at every stop. An input error (a cloud too small for its
-/// particles) is an Err; a blow-up is a failed outcome.
+/// The moments every run with an output directory writes: start, middle and end.
+const MOMENTS: [(&str, f64); 3] = [("start", 0.0), ("middle", 0.5), ("end", 1.0)];
+
+/// One run: blast the cloud for `seed`, integrate to the duration and sample the observables
+/// at `samples` equal intervals; `recorder` writes the particle frames (the start, middle and
+/// end, and those its schedule asks for) as the run goes. `progress` hears the fraction of
+/// the duration done at every stop. An input error (a cloud too small for its particles) is
+/// an Err; a blow-up is a failed outcome.
 pub fn run(
     params: &BlastParams,
     seed: u64,
-    snapshot_times: &[f64],
     progress: &dyn Fn(f64),
+    mut recorder: Option<&mut Recorder>,
 ) -> crate::Result<BlastOutcome> {
     params.validate()?;
     let cloud = Cloud::blast(params, seed)?;
     let started = Instant::now();
     let mut sim = Simulation::new(params, cloud);
+    let t_end = params.duration;
+    let scheduled = recorder.as_ref().map_or(&[][..], |r| r.times());
     let mut stops: Vec<f64> = (0..=params.samples)
-        .map(|k| params.duration * k as f64 / params.samples as f64)
-        .chain(
-            snapshot_times
-                .iter()
-                .copied()
-                .filter(|t| *t <= params.duration),
-        )
+        .map(|k| t_end * k as f64 / params.samples as f64)
+        .chain(MOMENTS.iter().map(|(_, f)| f * t_end))
+        .chain(scheduled.iter().copied().filter(|t| *t <= t_end))
         .collect();
     stops.sort_by(f64::total_cmp);
     stops.dedup();
     let is_sample = |t: f64| {
-        let k = t / params.duration * params.samples as f64;
+        let k = t / t_end * params.samples as f64;
         (k - k.round()).abs() < 1e-9
     };
     let mut outcome = BlastOutcome {
         failure: None,
         samples: Vec::new(),
-        snapshots: Vec::new(),
+        cloud: Cloud::default(),
         stats: StepStats::default(),
         wall_time_s: 0.0,
     };
+    let axis = params.field_axis();
+    let stride = recorder.as_ref().and_then(|r| r.every());
     for t in stops {
-        if let Err(reason) = sim.advance_to(t) {
+        let mut observe = |step: u64, time: f64, cloud: &Cloud| {
+            if let Some(r) = recorder.as_deref_mut() {
+                if time < t && r.due(step, time) {
+                    r.frame(step, &snapshot::frame(cloud, time));
+                }
+            }
+        };
+        if let Err(reason) = sim.advance_observed(t, stride, &mut observe) {
             outcome.failure = Some(format!("{reason} at t = {:.4e} s", sim.time));
             break;
         }
         if is_sample(t) {
             outcome.samples.push(sim.sample());
         }
-        if snapshot_times.contains(&t) {
-            outcome.snapshots.push((t, sim.cloud.clone()));
+        if let Some(r) = recorder.as_deref_mut() {
+            let step = sim.stats().steps as u64;
+            if r.due(step, t) {
+                r.frame(step, &snapshot::frame(&sim.cloud, t));
+            }
+            if let Some((label, _)) = MOMENTS.iter().find(|(_, f)| f * t_end == t) {
+                snapshot::moment(r, label, step, t, &sim.cloud, &axis);
+            }
         }
-        progress(t / params.duration);
+        progress(t / t_end);
     }
     if outcome.samples.is_empty() {
         outcome.samples.push(sim.sample());
     }
+    outcome.cloud = sim.cloud.clone();
     outcome.stats = sim.stats();
     outcome.wall_time_s = started.elapsed().as_secs_f64();
     Ok(outcome)

@@ -164,9 +164,6 @@ pub struct BlastParams {
     pub step: StepParams,
     /// Wanted aspect ratio of the `shape_error` metric.
     pub target_aspect_ratio: f64,
-    /// Times of the particle snapshots a run with an output directory writes, s (None: start,
-    /// middle and end).
-    pub snapshots: Option<Vec<f64>>,
 }
 
 impl BlastParams {
@@ -228,15 +225,7 @@ impl BlastParams {
                 dt_min: 1e-12,
             },
             target_aspect_ratio: 2.0,
-            snapshots: None,
         }
-    }
-
-    /// Times of the snapshots, s.
-    pub fn snapshot_times(&self) -> Vec<f64> {
-        self.snapshots
-            .clone()
-            .unwrap_or_else(|| vec![0.0, 0.5 * self.duration, self.duration])
     }
 
     /// The integrator actually used.
@@ -286,16 +275,6 @@ impl BlastParams {
             return Err(Error::input(format!(
                 "near_field_cutoff {} m and near_field_theta {}: choose one (the other must be 0)",
                 n.cutoff, n.theta
-            )));
-        }
-        if let Some(t) = self
-            .snapshot_times()
-            .into_iter()
-            .find(|t| !(0.0..=self.duration).contains(t))
-        {
-            return Err(Error::input(format!(
-                "snapshot_times: {t} s is not allowed (need 0 ≤ t ≤ duration = {} s)",
-                self.duration
             )));
         }
         let fewest_step = if self.interactions.any() || s.integrator == Integrator::Trapezoidal {

@@ -1,14 +1,12 @@
 //! Snapshot writers (sinks): the cloud as a particle frame (extended XYZ, LAMMPS dump, legacy
 //! VTK and Parquet, see [`crate::output::particles`]) and a side view PNG, one set per time.
 
-use std::path::Path;
-
 use nalgebra::Vector3;
 
 use super::cloud::{centre_of_mass, Cloud};
 use crate::output::particles::{Cell, ParticleFrame, Property};
 use crate::output::plot::{render_png_sized, Figure, Series, SeriesStyle};
-use crate::Result;
+use crate::output::snapshots::Recorder;
 
 /// The cloud at time `time` (s) as a particle frame: type 1 for particles with q/m ≥ 0,
 /// type 2 for q/m < 0; the cell is the bounding box of the spheres (not periodic); extra
@@ -82,16 +80,19 @@ pub fn side_view(cloud: &Cloud, axis: &Vector3<f64>, time: f64) -> Figure {
     }
 }
 
-/// Writes `snapshot.<k>.xyz`, `.dump`, `.vtk`, `.parquet` (k zero-padded to three digits; see
-/// [`crate::output::particles`]) and a side view `.png` into `dir` (which must exist); `axis`
-/// is the unit field axis.
-pub fn write(dir: &Path, k: usize, time: f64, cloud: &Cloud, axis: &Vector3<f64>) -> Result<()> {
-    let stem = format!("snapshot.{k:03}");
-    frame(cloud, time).write_all(dir, &stem)?;
-    render_png_sized(
-        &dir.join(format!("{stem}.png")),
-        &side_view(cloud, axis, time),
-        800,
-        800,
-    )
+/// Writes a moment of the run (`<label>.*` in the recorder's formats) and its side view
+/// `<label>.png`; `axis` is the unit field axis.
+pub fn moment(
+    recorder: &mut Recorder,
+    label: &str,
+    step: u64,
+    time: f64,
+    cloud: &Cloud,
+    axis: &Vector3<f64>,
+) {
+    recorder.moment(label, step, &frame(cloud, time));
+    recorder.attempt(|dir| {
+        let path = dir.join(format!("{label}.png"));
+        render_png_sized(&path, &side_view(cloud, axis, time), 800, 800)
+    });
 }

@@ -3,13 +3,13 @@
 use nalgebra::Vector3;
 
 use super::params::{BlastParams, DragLaw, Integrator, Interactions, MAX_SAMPLES};
-use super::{run, snapshot, BlastOutcome};
+use super::{run, BlastOutcome};
 use crate::study::model::{
-    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunStatus, StudyModel, Value,
+    Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunSpan, RunStatus, StudyModel, Value,
 };
 use crate::study::param::{quantity as q, Bounds};
-use crate::units::{parse_quantity, Dimension as D, MU0};
-use crate::{choice_param, number_param, Error, Result};
+use crate::units::{Dimension as D, MU0};
+use crate::{choice_param, number_param, Result};
 
 /// The `blast` study model.
 #[derive(Debug, Default)]
@@ -386,30 +386,6 @@ static PARAMETERS: &[BlastParam] = &[
         .within(NON_NEGATIVE),
         target_aspect_ratio
     ),
-    Param {
-        spec: ParamSpec::new(
-            "snapshot_times",
-            K::Name,
-            "Snapshot times of a run with an output directory, comma-separated times (s, ms, \
-             us, min, h; bare number: s)",
-        )
-        .derived("start, middle and end"),
-        get: |p| {
-            p.snapshots.as_ref().map(|t| {
-                let texts: Vec<String> = t.iter().map(|x| format!("{x:?} s")).collect();
-                Value::Text(texts.join(","))
-            })
-        },
-        set: |_, p, v| {
-            let times = v
-                .as_text()
-                .split(',')
-                .map(|t| parse_quantity(t, D::Time, "s"))
-                .collect::<std::result::Result<Vec<f64>, String>>()?;
-            p.snapshots = Some(times);
-            Ok(())
-        },
-    },
 ];
 
 /// A direction as `parse_direction` reads it back ("x", "-z" or "a,b,c").
@@ -598,29 +574,36 @@ impl StudyModel for BlastModel {
         params.validate()
     }
 
-    fn run(&self, params: &BlastParams, seed: u64, context: &RunContext) -> Result<RunResult> {
-        let times = match context.artifacts {
-            Some(_) => params.snapshot_times(),
-            None => Vec::new(),
+    fn run_span(&self, params: &BlastParams) -> std::result::Result<RunSpan, String> {
+        let steps = match params.integrator() {
+            Integrator::Trapezoidal => None,
+            _ => Some((params.duration / params.step.dt).ceil() as u64),
         };
-        Ok(match run(params, seed, &times, context.progress) {
-            Ok(outcome) => {
-                if let Some(dir) = context.artifacts {
-                    let snaps = dir.join("snapshots");
-                    std::fs::create_dir_all(&snaps).map_err(|e| Error::io(&snaps, e))?;
-                    for (k, (t, cloud)) in outcome.snapshots.iter().enumerate() {
-                        snapshot::write(&snaps, k, *t, cloud, &params.field_axis())?;
-                    }
-                }
-                Self::result(params, &outcome)
-            }
-            Err(e) => RunResult {
-                status: RunStatus::Failed(e.to_string()),
-                notes: Vec::new(),
-                metrics: METRICS.iter().map(|m| (m.to_string(), None)).collect(),
-                series: Vec::new(),
-                wall_time_s: 0.0,
-            },
+        Ok(RunSpan {
+            end: Some(params.duration),
+            steps,
         })
+    }
+
+    fn run(&self, params: &BlastParams, seed: u64, context: &RunContext) -> Result<RunResult> {
+        let mut recorder = context.recorder();
+        Ok(
+            match run(params, seed, context.progress, recorder.as_mut()) {
+                Ok(outcome) => {
+                    let mut result = Self::result(params, &outcome);
+                    if let Some(recorder) = recorder {
+                        result.notes.extend(recorder.finish()?);
+                    }
+                    result
+                }
+                Err(e) => RunResult {
+                    status: RunStatus::Failed(e.to_string()),
+                    notes: Vec::new(),
+                    metrics: METRICS.iter().map(|m| (m.to_string(), None)).collect(),
+                    series: Vec::new(),
+                    wall_time_s: 0.0,
+                },
+            },
+        )
     }
 }

@@ -8,6 +8,7 @@
 //!   solved at every integrator stage;
 //! - [`integrator`]: Heun stepping and the time step;
 //! - [`observables`]: A(t), τ_x, sticking fraction, contact count and the outcome;
+//! - [`snapshot`]: the state as a particle frame (easy axes, moments, cos θ, contacts);
 //! - `run`: the loop that calls them.
 
 pub mod contacts;
@@ -16,6 +17,7 @@ pub mod loads;
 pub mod observables;
 pub mod packing;
 mod run;
+pub mod snapshot;
 pub mod state;
 pub mod torque;
 pub mod velocity;
@@ -24,16 +26,22 @@ use std::time::Instant;
 
 use super::params::AlignParams;
 use super::AlignOutcome;
+use crate::output::snapshots::Recorder;
 pub use integrator::time_step_s;
 pub use observables::{alignment_degree, crossing_time};
 pub use packing::Packing;
 use run::Run;
 pub use torque::magnetic_torque;
 
-/// Runs the alignment stage on a settled packing (not modified).
-pub fn align(params: &AlignParams, packing: &Packing) -> AlignOutcome {
+/// Runs the alignment stage on a settled packing (not modified); `recorder` writes its
+/// particle frames.
+pub fn align(
+    params: &AlignParams,
+    packing: &Packing,
+    recorder: Option<&mut Recorder>,
+) -> AlignOutcome {
     let started = Instant::now();
-    let mut outcome = Run::new(params, packing).integrate();
+    let mut outcome = Run::new(params, packing).integrate(recorder);
     outcome.wall_time_s = started.elapsed().as_secs_f64();
     outcome
 }

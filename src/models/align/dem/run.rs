@@ -10,12 +10,14 @@ use super::integrator::{fastest_rotation, time_step, Heun};
 use super::loads::Loads;
 use super::observables::{check_overlaps, check_velocities, sticking_fraction, Record};
 use super::packing::Packing;
+use super::snapshot::frame;
 use super::state::State;
 use super::torque::Anisotropy;
 use super::velocity::{self, Schedule, SolverControl, Stage};
 use crate::models::align::params::AlignParams;
 use crate::models::align::AlignOutcome;
 use crate::neighbor::NeighborList;
+use crate::output::snapshots::Recorder;
 
 /// Most alignment steps a run may take (a typical run takes tens): a run that would need more
 /// fails with its reason instead of running for days.
@@ -77,8 +79,9 @@ impl<'a> Run<'a> {
     }
 
     /// Steps until A reaches max(target, 0.9) (so τ_0.90 is always measured), the time limit
-    /// passes or the run breaks down.
-    pub fn integrate(mut self) -> AlignOutcome {
+    /// passes or the run breaks down; `recorder` writes the particle frames (start, end and
+    /// those its schedule asks for) as the run goes.
+    pub fn integrate(mut self, mut recorder: Option<&mut Recorder>) -> AlignOutcome {
         let steps_allowed = self.params.max_time / self.params.scales().time / self.heun.dt;
         let max_steps = if steps_allowed > MAX_STEPS as f64 {
             self.record.fail(format!(
@@ -92,12 +95,24 @@ impl<'a> Run<'a> {
             steps_allowed.ceil() as usize
         };
         let stop_at = self.params.target.max(0.9);
+        if let Some(r) = recorder.as_deref_mut() {
+            self.refresh_neighbours();
+            self.rebuild_contacts();
+            self.offer_frame(r, Some("start"));
+            self.offer_frame(r, None);
+        }
         while self.record.steps() < max_steps && self.record.alignment() < stop_at {
             if let Err(reason) = self.step() {
                 self.record.fail(reason);
                 break;
             }
             self.record.step(&self.state.orientation);
+            if let Some(r) = recorder.as_deref_mut() {
+                self.offer_frame(r, None);
+            }
+        }
+        if let Some(r) = recorder {
+            self.offer_frame(r, Some("end"));
         }
         let (position, applied) = (&self.state.position, self.loads.applied);
         self.record
@@ -114,13 +129,35 @@ impl<'a> Run<'a> {
         Ok(())
     }
 
+    /// Writes the current state as the moment `label`, or as a scheduled frame if one is due.
+    fn offer_frame(&self, recorder: &mut Recorder, label: Option<&str>) {
+        let step = self.record.steps() as u64;
+        let time = step as f64 * self.heun.dt * self.params.scales().time;
+        let take = || frame(self.params, self.packing, &self.state, &self.contacts, time);
+        match label {
+            Some(label) => recorder.moment(label, step, &take()),
+            None if recorder.due(step, time) => recorder.frame(step, &take()),
+            None => {}
+        }
+    }
+
+    /// The contacts of the current state.
+    fn rebuild_contacts(&mut self) {
+        let (position, packing) = (&self.state.position, self.packing);
+        self.contacts.rebuild(
+            position,
+            &packing.radius,
+            &self.list,
+            &packing.container,
+            &self.law,
+        );
+    }
+
     /// Solves the velocity problem at the current state, warm-started from the last solve.
     fn solve_stage(&mut self) -> Result<(), String> {
         self.refresh_neighbours();
-        let (position, packing) = (&self.state.position, self.packing);
-        let radius = &packing.radius;
-        self.contacts
-            .rebuild(position, radius, &self.list, &packing.container, &self.law);
+        self.rebuild_contacts();
+        let radius = &self.packing.radius;
         check_overlaps(&self.contacts)?;
         self.anisotropy
             .apply(&self.state.orientation, &mut self.torque);
