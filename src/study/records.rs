@@ -221,6 +221,34 @@ fn push(t: &mut Table, name: &str, (data, unit): (ColumnData, Option<String>)) {
     }
 }
 
+/// Columns of the runs table after the parameters.
+const FIXED_AFTER_INPUTS: &[&str] = &[
+    "status",
+    "reason",
+    "notes",
+    "wall_time_s",
+    "magopt_version",
+    "model",
+];
+
+/// The runs-table column of a parameter that is not swept: [`ParamSpec::column`], or
+/// `input_<column>` where that is the name of a metric (`max_packing_fraction` is both a bed
+/// parameter, where to stop, and a metric, what was reached) or another column.
+///
+/// [`ParamSpec::column`]: super::model::ParamSpec::column
+pub fn input_column_name(spec: &super::model::ParamSpec, columns: &Columns) -> String {
+    let name = spec.column();
+    let taken = columns.metrics.contains(&name)
+        || columns.axes.iter().any(|(c, _)| *c == name)
+        || FIXED_AFTER_INPUTS.contains(&name.as_str())
+        || ["run_index", "run_id", "point", "replicate", "seed"].contains(&name.as_str());
+    if taken {
+        format!("input_{name}")
+    } else {
+        name
+    }
+}
+
 /// Metrics that count something (steps, contacts, cells, bonds): integer columns.
 const COUNT_METRICS: &[&str] = &[
     "steps",
@@ -338,7 +366,7 @@ pub fn runs_table(
         assert_eq!(input.values.len(), records.len(), "one value per run");
         push(
             &mut t,
-            &input.spec.column(),
+            &input_column_name(input.spec, columns),
             value_column(input.spec, &input.values),
         );
     }
