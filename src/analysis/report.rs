@@ -150,7 +150,11 @@ pub fn cell_table(structure: &Structure) -> Table {
             "counted",
             ColumnData::Bool(cells.iter().map(|c| c.counted).collect()),
         )
-        .with_unit("area", where_(bounded(), cells.iter().map(|c| c.area())), "m2")
+        .with_unit(
+            "area",
+            where_(bounded(), cells.iter().map(|c| c.area())),
+            "m2",
+        )
         .with_unit(
             "perimeter",
             where_(
@@ -240,7 +244,11 @@ pub fn particle_table(snapshot: &Snapshot, analysis: &SnapshotAnalysis) -> Table
     if let Some(fl) = &analysis.fluctuations {
         t.push_unit(
             "relative_fluctuation",
-            ColumnData::OptF64(fl.iter().map(|v| Some(*v).filter(|v| !v.is_nan())).collect()),
+            ColumnData::OptF64(
+                fl.iter()
+                    .map(|v| Some(*v).filter(|v| !v.is_nan()))
+                    .collect(),
+            ),
             "1",
         );
     }

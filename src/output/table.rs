@@ -261,8 +261,7 @@ fn to_polars(col: &Column) -> pl::Column {
             pl::StringChunked::from_iter_values(name, v.iter().map(String::as_str)).into_series()
         }
         ColumnData::OptStr(v) => {
-            pl::StringChunked::from_iter_options(name, v.iter().map(Option::as_deref))
-                .into_series()
+            pl::StringChunked::from_iter_options(name, v.iter().map(Option::as_deref)).into_series()
         }
         ColumnData::Bool(v) => pl::BooleanChunked::from_slice(name, v).into_series(),
     };
@@ -292,7 +291,10 @@ pub fn write_parquet_with(path: &Path, table: &Table, extra: &[(String, String)]
 }
 
 /// The Parquet file of a table, in memory.
-fn parquet_bytes(table: &Table, extra: &[(String, String)]) -> std::result::Result<Vec<u8>, String> {
+fn parquet_bytes(
+    table: &Table,
+    extra: &[(String, String)],
+) -> std::result::Result<Vec<u8>, String> {
     if table.columns.is_empty() {
         return Err("the table has no columns".to_string());
     }
@@ -582,7 +584,13 @@ mod tests {
             )
             .with(
                 "os",
-                ColumnData::OptStr(vec![None, Some(String::new()), Some("x".into()), None, None]),
+                ColumnData::OptStr(vec![
+                    None,
+                    Some(String::new()),
+                    Some("x".into()),
+                    None,
+                    None,
+                ]),
             )
     }
 

@@ -169,8 +169,7 @@ pub fn value_column(
     match numbers {
         Some(numbers) if !text_kind => {
             let data = if matches!(spec.kind, ParamKind::Count) {
-                let ints: Vec<Option<i64>> =
-                    numbers.iter().map(|x| x.map(|x| x as i64)).collect();
+                let ints: Vec<Option<i64>> = numbers.iter().map(|x| x.map(|x| x as i64)).collect();
                 if all_some {
                     C::I64(ints.into_iter().flatten().collect())
                 } else {
@@ -307,8 +306,7 @@ pub fn label_unit(label: &str) -> String {
 /// `N`, `J`, `m/s`, `kg*m2`); "particles" is not.
 fn is_unit(text: &str) -> bool {
     const SYMBOLS: &[&str] = &[
-        "m", "s", "kg", "g", "N", "J", "W", "Pa", "rad", "K", "C", "A", "T", "V", "mm", "um",
-        "nm",
+        "m", "s", "kg", "g", "N", "J", "W", "Pa", "rad", "K", "C", "A", "T", "V", "mm", "um", "nm",
     ];
     let known = |u: &str| {
         let base = u.trim_end_matches(|c: char| c.is_ascii_digit() || "²³⁻¹^-".contains(c));
