@@ -6,11 +6,12 @@ use std::path::Path;
 use super::distribution::{force_distributions, relative_fluctuations, SpeciesForces};
 use super::pair::{coordination, radial_distribution, RadialDistribution};
 use super::picture::{cells_picture, force_pdf_figure, value_picture};
-use super::snapshot::Snapshot;
+use super::snapshot::{FrameInfo, Snapshot};
 use super::structure::{analyze_full, modulus, Structure, StructureMetrics};
 use super::voronoi::TessellationSettings;
 use crate::output::atomic::write_json_atomic;
-use crate::output::table::{write_parquet, ColumnData, Table};
+use crate::output::table::{write_parquet_with, ColumnData, Table};
+use crate::study::records::VERSION;
 use crate::Result;
 
 /// Default relative contact tolerance of the coordination number.
@@ -120,19 +121,26 @@ pub fn analyze_snapshot(
     })
 }
 
-/// Per-cell table: particle, sides, bounded, counted, area (m²), perimeter (m), regularity.
+/// `Some(value)` where `keep`, else None (a missing value is null, never NaN).
+fn where_(keep: impl Iterator<Item = bool>, values: impl Iterator<Item = f64>) -> ColumnData {
+    ColumnData::OptF64(keep.zip(values).map(|(k, v)| k.then_some(v)).collect())
+}
+
+/// Per-cell table: particle, sides, bounded, counted, area (m²), perimeter (m), regularity;
+/// area, perimeter and regularity are null for an unbounded cell.
 pub fn cell_table(structure: &Structure) -> Table {
     let cells = &structure.tessellation.cells;
-    let f =
-        |g: &dyn Fn(&super::voronoi::Cell) -> f64| ColumnData::F64(cells.iter().map(g).collect());
+    let bounded = || cells.iter().map(|c| c.bounded);
     Table::new()
-        .with(
+        .with_unit(
             "particle",
             ColumnData::U64((0..cells.len() as u64).collect()),
+            "1",
         )
-        .with(
+        .with_unit(
             "sides",
             ColumnData::I64(cells.iter().map(|c| c.sides() as i64).collect()),
+            "1",
         )
         .with(
             "bounded",
@@ -142,18 +150,24 @@ pub fn cell_table(structure: &Structure) -> Table {
             "counted",
             ColumnData::Bool(cells.iter().map(|c| c.counted).collect()),
         )
-        .with("area", f(&|c| c.area()))
-        .with(
-            "perimeter",
-            f(&|c| {
-                if c.bounded {
-                    c.side_lengths().iter().sum()
-                } else {
-                    f64::NAN
-                }
-            }),
+        .with_unit(
+            "area",
+            where_(bounded(), cells.iter().map(|c| c.area())),
+            "m2",
         )
-        .with("regularity", f(&|c| c.regularity()))
+        .with_unit(
+            "perimeter",
+            where_(
+                bounded(),
+                cells.iter().map(|c| c.side_lengths().iter().sum()),
+            ),
+            "m",
+        )
+        .with_unit(
+            "regularity",
+            where_(bounded(), cells.iter().map(|c| c.regularity())),
+            "1",
+        )
 }
 
 /// Cell corners, one row per corner: particle, corner (counter-clockwise), x, y (m).
@@ -168,58 +182,75 @@ pub fn cell_vertex_table(structure: &Structure) -> Table {
         }
     }
     Table::new()
-        .with("particle", ColumnData::U64(particle))
-        .with("corner", ColumnData::I64(corner))
-        .with("x", ColumnData::F64(x))
-        .with("y", ColumnData::F64(y))
+        .with_unit("particle", ColumnData::U64(particle), "1")
+        .with_unit("corner", ColumnData::I64(corner), "1")
+        .with_unit("x", ColumnData::F64(x), "m")
+        .with_unit("y", ColumnData::F64(y), "m")
 }
 
 /// Per-particle table: position, the snapshot's optional columns, side count, counted, |ψ6|
-/// (plain and weighted) and its phase, coordination and relative force fluctuation.
+/// (plain and weighted; the weighted one null for an unbounded cell) and its phase,
+/// coordination and relative force fluctuation (null where the species' mean force is 0).
 pub fn particle_table(snapshot: &Snapshot, analysis: &SnapshotAnalysis) -> Table {
     let s = &analysis.structure;
     let p = &snapshot.positions;
     let mut t = Table::new()
-        .with("x", ColumnData::F64(p.iter().map(|v| v.x).collect()))
-        .with("y", ColumnData::F64(p.iter().map(|v| v.y).collect()));
+        .with_unit("x", ColumnData::F64(p.iter().map(|v| v.x).collect()), "m")
+        .with_unit("y", ColumnData::F64(p.iter().map(|v| v.y).collect()), "m");
     if let Some(d) = &snapshot.diameter {
-        t.push("diameter", ColumnData::F64(d.clone()));
+        t.push_unit("diameter", ColumnData::F64(d.clone()), "m");
     }
     if let Some(sp) = &snapshot.species {
-        t.push("species", ColumnData::I64(sp.clone()));
+        t.push_unit("species", ColumnData::I64(sp.clone()), "1");
     }
     if let Some(f) = &snapshot.force {
-        t.push("force", ColumnData::F64(f.clone()));
+        t.push_unit("force", ColumnData::F64(f.clone()), "N");
     }
     let cells = &s.tessellation.cells;
-    t.push(
+    t.push_unit(
         "sides",
         ColumnData::I64(cells.iter().map(|c| c.sides() as i64).collect()),
+        "1",
     );
     t.push(
         "counted",
         ColumnData::Bool(cells.iter().map(|c| c.counted).collect()),
     );
-    t.push(
+    t.push_unit(
         "psi6",
         ColumnData::F64(s.order.iter().map(|o| modulus(o.psi6)).collect()),
+        "1",
     );
-    t.push(
+    t.push_unit(
         "psi6_phase",
         ColumnData::F64(s.order.iter().map(|o| o.psi6.1.atan2(o.psi6.0)).collect()),
+        "rad",
     );
-    t.push(
+    t.push_unit(
         "psi6_weighted",
-        ColumnData::F64(s.order.iter().map(|o| modulus(o.psi6_weighted)).collect()),
+        where_(
+            cells.iter().map(|c| c.bounded),
+            s.order.iter().map(|o| modulus(o.psi6_weighted)),
+        ),
+        "1",
     );
     if let Some(z) = &analysis.coordination {
-        t.push(
+        t.push_unit(
             "coordination",
             ColumnData::I64(z.iter().map(|v| *v as i64).collect()),
+            "1",
         );
     }
     if let Some(fl) = &analysis.fluctuations {
-        t.push("relative_fluctuation", ColumnData::F64(fl.clone()));
+        t.push_unit(
+            "relative_fluctuation",
+            ColumnData::OptF64(
+                fl.iter()
+                    .map(|v| Some(*v).filter(|v| !v.is_nan()))
+                    .collect(),
+            ),
+            "1",
+        );
     }
     t
 }
@@ -231,17 +262,23 @@ fn force_pdf_table(forces: &[SpeciesForces]) -> Table {
     for d in forces {
         let h = &d.histogram;
         let part = Table::new()
-            .with("species", ColumnData::I64(vec![d.species; h.counts.len()]))
-            .with(
+            .with_unit(
+                "species",
+                ColumnData::I64(vec![d.species; h.counts.len()]),
+                "1",
+            )
+            .with_unit(
                 "force_lo",
                 ColumnData::F64(h.edges[..h.counts.len()].to_vec()),
+                "N",
             )
-            .with("force_hi", ColumnData::F64(h.edges[1..].to_vec()))
-            .with(
+            .with_unit("force_hi", ColumnData::F64(h.edges[1..].to_vec()), "N")
+            .with_unit(
                 "count",
                 ColumnData::U64(h.counts.iter().map(|c| *c as u64).collect()),
+                "1",
             )
-            .with("density", ColumnData::F64(h.density.clone()));
+            .with_unit("density", ColumnData::F64(h.density.clone()), "1/N");
         t.append(&part).expect("same layout for every species");
     }
     t
@@ -249,14 +286,30 @@ fn force_pdf_table(forces: &[SpeciesForces]) -> Table {
 
 /// Writes into `dir`: summary.json, cells.parquet, cell_vertices.parquet, particles.parquet,
 /// cells.png; with forces force_pdf.parquet, force_pdf.png, forces.png and fluctuations.png;
-/// with g(r) rdf.parquet.
+/// with g(r) rdf.parquet. summary.json and every table record the magopt version and the
+/// input (`source`: path, format, size, frame) — the tables as Parquet key-value metadata
+/// `magopt.version` and `magopt.input` (JSON).
 ///
 /// # Errors
 /// [`crate::Error::Io`] or [`crate::Error::Output`] if a file cannot be written.
-pub fn write_outputs(dir: &Path, snapshot: &Snapshot, analysis: &SnapshotAnalysis) -> Result<()> {
-    let summary = serde_json::to_value(&analysis.summary)
+pub fn write_outputs(
+    dir: &Path,
+    snapshot: &Snapshot,
+    analysis: &SnapshotAnalysis,
+    source: &FrameInfo,
+) -> Result<()> {
+    let mut summary = serde_json::to_value(&analysis.summary)
         .map_err(|e| crate::Error::Output(format!("cannot serialize the summary: {e}")))?;
+    let input = serde_json::to_value(source)
+        .map_err(|e| crate::Error::Output(format!("cannot serialize the input: {e}")))?;
+    summary["magopt_version"] = VERSION.into();
+    summary["input"] = input.clone();
     write_json_atomic(&dir.join("summary.json"), &summary)?;
+    let meta = [
+        ("magopt.version".to_string(), VERSION.to_string()),
+        ("magopt.input".to_string(), input.to_string()),
+    ];
+    let write_parquet = |path: &Path, table: &Table| write_parquet_with(path, table, &meta);
     write_parquet(&dir.join("cells.parquet"), &cell_table(&analysis.structure))?;
     write_parquet(
         &dir.join("cell_vertices.parquet"),
@@ -293,8 +346,8 @@ pub fn write_outputs(dir: &Path, snapshot: &Snapshot, analysis: &SnapshotAnalysi
     }
     if let Some(rdf) = &analysis.summary.rdf {
         let t = Table::new()
-            .with("r", ColumnData::F64(rdf.r.clone()))
-            .with("g", ColumnData::F64(rdf.g.clone()));
+            .with_unit("r", ColumnData::F64(rdf.r.clone()), "m")
+            .with_unit("g", ColumnData::F64(rdf.g.clone()), "1");
         write_parquet(&dir.join("rdf.parquet"), &t)?;
     }
     Ok(())

@@ -2,13 +2,18 @@
 //! (m) and optional `diameter` (m), `species` (integer) and `force` (N); or the particle table
 //! the bed model writes ([`crate::output::particles`]): `x_m`, `y_m`, optional `radius_m` (m),
 //! `type` (1-based, species = type − 1) and `force_magnitude_N` (N). Other columns (e.g.
-//! `vx`, `z_m`) are ignored.
+//! `vx`, `z_m`) are ignored. Extended XYZ and LAMMPS dump files as magopt writes them
+//! ([`crate::output::particles`]) are read too, one frame of them (see [`Snapshot::read_frame`]).
 
 use std::path::Path;
 
 use nalgebra::Vector2;
 
-use crate::output::table::{read_csv, read_parquet, ColumnData, Table};
+use crate::output::guard::read_text_limited;
+use crate::output::particles::{
+    lammps_frames, read_lammps_dump_frame, read_xyz, xyz_frame_count, ParticleFrame, Values,
+};
+use crate::output::table::{read_csv, read_parquet, ColumnData, Table, MAX_CSV_INPUT};
 use crate::{Error, Result};
 
 /// Particle data of one 2D snapshot (SI units).
@@ -25,21 +30,104 @@ pub struct Snapshot {
 }
 
 impl Snapshot {
-    /// Reads a snapshot: `.csv` files as CSV, everything else as Parquet.
+    /// Reads a snapshot (the last frame of a multi-frame file); see [`Snapshot::read_frame`].
     ///
     /// # Errors
-    /// [`Error::Io`] or [`Error::Output`] if the file cannot be read; [`Error::Input`] for a
-    /// missing `x`/`y` column or a column of the wrong type (see [`Snapshot::from_table`]).
+    /// As [`Snapshot::read_frame`].
     pub fn read(path: &Path) -> Result<Self> {
-        let is_csv = path
+        Self::read_frame(path, -1).map(|(s, _)| s)
+    }
+
+    /// Reads frame `frame` of a snapshot file (negative: counted from the end, −1 the last),
+    /// chosen by extension: `.parquet`/`.pq` and `.csv` tables (one frame), extended XYZ
+    /// (`.xyz`/`.extxyz`) and LAMMPS dumps (`.dump`/`.lammpstrj`). Particle frames give x, y,
+    /// diameter = 2 × radius, species = type − 1 and force = the `force_magnitude` column.
+    ///
+    /// # Errors
+    /// [`Error::Input`] for an unknown extension (naming the formats), a frame out of range
+    /// or a file that does not parse; [`Error::Io`] or [`Error::Output`] if the file cannot
+    /// be read; as [`Snapshot::from_table`] for tables.
+    pub fn read_frame(path: &Path, frame: isize) -> Result<(Self, FrameInfo)> {
+        let ext = path
             .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-        let table = if is_csv {
-            read_csv(path)?
-        } else {
-            read_parquet(path)?
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        let format = match ext.as_str() {
+            "parquet" | "pq" => "parquet",
+            "csv" => "csv",
+            "xyz" | "extxyz" => "extxyz",
+            "dump" | "lammpstrj" => "lammps-dump",
+            _ => {
+                return Err(Error::input(format!(
+                    "{}: unknown snapshot format '.{ext}' (allowed: .parquet/.pq, .csv, \
+                     .xyz/.extxyz, .dump/.lammpstrj)",
+                    path.display()
+                )))
+            }
         };
-        Self::from_table(&table).map_err(|e| Error::input(format!("{}: {e}", path.display())))
+        let at = |e: Error| match e {
+            Error::Input(m) => Error::input(format!("{}: {m}", path.display())),
+            other => other,
+        };
+        let (snapshot, frames, index, time) = match format {
+            "parquet" | "csv" => {
+                let index = resolve(frame, 1).map_err(at)?;
+                let table = if format == "csv" {
+                    read_csv(path)?
+                } else {
+                    read_parquet(path)?
+                };
+                let time = match table.column("time_s") {
+                    Some(ColumnData::F64(t)) => t.first().copied(),
+                    _ => None,
+                };
+                (Self::from_table(&table).map_err(at)?, 1, index, time)
+            }
+            _ => {
+                let text = read_text_limited(path, MAX_CSV_INPUT, "particle file")?;
+                let (count, read): (usize, Box<dyn Fn(isize) -> Result<ParticleFrame>>) =
+                    if format == "extxyz" {
+                        let n = xyz_frame_count(&text).map_err(at)?;
+                        (n, Box::new(|k| read_xyz(&text, k)))
+                    } else {
+                        let n = lammps_frames(&text).len();
+                        (n, Box::new(|k| read_lammps_dump_frame(&text, k)))
+                    };
+                let index = resolve(frame, count).map_err(at)?;
+                let particles = read(index as isize).map_err(at)?;
+                let time = Some(particles.time);
+                (Self::from_frame(&particles), count, index, time)
+            }
+        };
+        let size_bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+        let info = FrameInfo {
+            path: path.display().to_string(),
+            format,
+            size_bytes,
+            frames,
+            frame: index,
+            time_s: time,
+        };
+        Ok((snapshot, info))
+    }
+
+    /// The 2D snapshot of a particle frame: x, y, diameter = 2 × radius, species = type − 1,
+    /// force from the scalar `force_magnitude` column if there is one.
+    pub fn from_frame(frame: &ParticleFrame) -> Self {
+        let force = frame.extra.iter().find_map(|p| match &p.values {
+            Values::Scalar(v) if p.name == "force_magnitude" => Some(v.clone()),
+            _ => None,
+        });
+        Self {
+            positions: frame
+                .position
+                .iter()
+                .map(|p| Vector2::new(p.x, p.y))
+                .collect(),
+            diameter: Some(frame.radius.iter().map(|r| 2.0 * r).collect()),
+            species: Some(frame.kind.iter().map(|k| i64::from(*k) - 1).collect()),
+            force,
+        }
     }
 
     /// Takes the snapshot columns from a table. Numeric columns may be floats or integers;
@@ -103,6 +191,37 @@ impl Snapshot {
     pub fn species_or_zero(&self) -> Vec<i64> {
         self.species.clone().unwrap_or_else(|| vec![0; self.len()])
     }
+}
+
+/// Where a snapshot came from (recorded with the analysis).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FrameInfo {
+    /// The file, as given.
+    pub path: String,
+    /// `parquet`, `csv`, `extxyz` or `lammps-dump`.
+    pub format: &'static str,
+    /// File size, bytes.
+    pub size_bytes: u64,
+    /// Number of frames in the file (1 for tables).
+    pub frames: usize,
+    /// The frame analysed, 0-based.
+    pub frame: usize,
+    /// Its time (s), where the file records one.
+    pub time_s: Option<f64>,
+}
+
+/// The 0-based frame `k` of `count` (negative: from the end).
+fn resolve(k: isize, count: usize) -> Result<usize> {
+    let i = if k < 0 { count as isize + k } else { k };
+    usize::try_from(i)
+        .ok()
+        .filter(|i| *i < count)
+        .ok_or_else(|| {
+            Error::input(format!(
+                "--frame {k} is out of range: the file holds {count} frame(s) (0..={}, or -1 for the last)",
+                count.saturating_sub(1)
+            ))
+        })
 }
 
 /// `new` if the table has it but not `old`, else `old`.

@@ -14,9 +14,14 @@ use crate::{Error, Result};
 /// `magopt analyze` options.
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
-    /// Snapshot: Parquet, or CSV (*.csv) with a header row. Columns x, y (m); optional
-    /// diameter (m), species (integer), force (N).
+    /// Snapshot, by extension: Parquet (.parquet/.pq) or CSV (.csv) with columns x, y (m) and
+    /// optional diameter (m), species (integer), force (N), or magopt's particle table; extended
+    /// XYZ (.xyz/.extxyz) or LAMMPS dump (.dump/.lammpstrj) as magopt writes them.
     file: PathBuf,
+    /// Frame of a multi-frame XYZ or dump file: 0 the first, negative counted from the end
+    /// (-1, the default, the last).
+    #[arg(long, allow_hyphen_values = true, default_value_t = -1, value_name = "K")]
+    frame: isize,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
     json: bool,
@@ -80,12 +85,12 @@ impl AnalyzeArgs {
 /// Runs the analysis and prints the summary (or JSON); writes tables and pictures to --out.
 pub fn run(args: &AnalyzeArgs) -> Result<()> {
     let options = args.options()?;
-    let snapshot = Snapshot::read(&args.file)?;
+    let (snapshot, source) = Snapshot::read_frame(&args.file, args.frame)?;
     let analysis = analyze_snapshot(&snapshot, &options)
         .map_err(|e| Error::input(format!("{}: {e}", args.file.display())))?;
     if let Some(dir) = &args.out {
         atomic::prepare_output_dir(dir)?;
-        write_outputs(dir, &snapshot, &analysis)?;
+        write_outputs(dir, &snapshot, &analysis, &source)?;
     }
     if args.json {
         let text = serde_json::to_string(&analysis.summary)

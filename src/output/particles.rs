@@ -34,10 +34,10 @@ mod parquet;
 mod vtk;
 mod xyz;
 
-pub use lammps::{lammps_dump, read_lammps_dump};
+pub use lammps::{lammps_dump, lammps_frames, read_lammps_dump, read_lammps_dump_frame};
 pub use parquet::table;
 pub use vtk::legacy_vtk;
-pub use xyz::{append_xyz, extended_xyz, read_xyz, write_xyz_frames};
+pub use xyz::{append_xyz, extended_xyz, read_xyz, write_xyz_frames, xyz_frame_count};
 
 use std::path::Path;
 

@@ -9,6 +9,15 @@
 //! back as `OptF64`. For Parquet files written by other tools (no such metadata), a nullable
 //! float column reads as `OptF64` if it holds at least one null and as `F64` otherwise;
 //! other integer widths, floats and types are rejected with [`Error::Output`].
+//!
+//! Units: a column may carry its unit ([`Column::unit`]; `"1"` for a dimensionless number,
+//! none for text and booleans). [`write_parquet`] stores it twice: as the Arrow field metadata
+//! `unit` of the column (what pyarrow shows in `schema.field(name).metadata`, and polars keeps)
+//! and as a JSON map `{column: unit}` under the file key `magopt.units`. [`read_parquet`]
+//! restores the units from either.
+//!
+//! Missing values are nulls, never NaN: the `Opt*` variants hold `None` where a value is
+//! missing, and NaN stays for a value that was computed and is NaN.
 
 use std::io::Cursor;
 use std::path::Path;
@@ -23,6 +32,12 @@ use crate::{Error, Result};
 /// Key of the Parquet key-value metadata entry that records the column variants.
 const KINDS_KEY: &str = "magopt.column_kinds";
 
+/// Key of the Parquet key-value metadata entry that maps column names to units.
+pub const UNITS_KEY: &str = "magopt.units";
+
+/// Key of the Arrow field metadata entry that holds a column's unit.
+pub const UNIT_FIELD_KEY: &str = "unit";
+
 /// The values of one column.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ColumnData {
@@ -32,10 +47,14 @@ pub enum ColumnData {
     OptF64(Vec<Option<f64>>),
     /// Signed 64-bit integers.
     I64(Vec<i64>),
+    /// Signed 64-bit integers with missing values.
+    OptI64(Vec<Option<i64>>),
     /// Unsigned 64-bit integers (seeds, counts).
     U64(Vec<u64>),
     /// UTF-8 strings.
     Str(Vec<String>),
+    /// UTF-8 strings with missing values.
+    OptStr(Vec<Option<String>>),
     /// Booleans.
     Bool(Vec<bool>),
 }
@@ -47,8 +66,10 @@ impl ColumnData {
             ColumnData::F64(v) => v.len(),
             ColumnData::OptF64(v) => v.len(),
             ColumnData::I64(v) => v.len(),
+            ColumnData::OptI64(v) => v.len(),
             ColumnData::U64(v) => v.len(),
             ColumnData::Str(v) => v.len(),
+            ColumnData::OptStr(v) => v.len(),
             ColumnData::Bool(v) => v.len(),
         }
     }
@@ -58,15 +79,17 @@ impl ColumnData {
         self.len() == 0
     }
 
-    /// Short name of the variant (`"f64"`, `"opt_f64"`, `"i64"`, `"u64"`, `"str"`, `"bool"`),
-    /// used in error messages and in the Parquet metadata.
+    /// Short name of the variant (`"f64"`, `"opt_f64"`, `"i64"`, `"opt_i64"`, `"u64"`, `"str"`,
+    /// `"opt_str"`, `"bool"`), used in error messages and in the Parquet metadata.
     pub fn kind(&self) -> &'static str {
         match self {
             ColumnData::F64(_) => "f64",
             ColumnData::OptF64(_) => "opt_f64",
             ColumnData::I64(_) => "i64",
+            ColumnData::OptI64(_) => "opt_i64",
             ColumnData::U64(_) => "u64",
             ColumnData::Str(_) => "str",
+            ColumnData::OptStr(_) => "opt_str",
             ColumnData::Bool(_) => "bool",
         }
     }
@@ -77,8 +100,10 @@ impl ColumnData {
             (ColumnData::F64(a), ColumnData::F64(b)) => a.extend_from_slice(b),
             (ColumnData::OptF64(a), ColumnData::OptF64(b)) => a.extend_from_slice(b),
             (ColumnData::I64(a), ColumnData::I64(b)) => a.extend_from_slice(b),
+            (ColumnData::OptI64(a), ColumnData::OptI64(b)) => a.extend_from_slice(b),
             (ColumnData::U64(a), ColumnData::U64(b)) => a.extend_from_slice(b),
             (ColumnData::Str(a), ColumnData::Str(b)) => a.extend_from_slice(b),
+            (ColumnData::OptStr(a), ColumnData::OptStr(b)) => a.extend_from_slice(b),
             (ColumnData::Bool(a), ColumnData::Bool(b)) => a.extend_from_slice(b),
             (a, b) => unreachable!(
                 "column kinds checked before extend: {} vs {}",
@@ -96,6 +121,8 @@ pub struct Column {
     pub name: String,
     /// Column values.
     pub data: ColumnData,
+    /// Unit of the values (`"1"`: dimensionless; None: text, flags, or not recorded).
+    pub unit: Option<String>,
 }
 
 /// An ordered set of equally long, uniquely named columns.
@@ -127,6 +154,28 @@ impl Table {
     /// If `data` is not as long as the existing columns or `name` is already used: both are
     /// programming errors.
     pub fn push(&mut self, name: &str, data: ColumnData) {
+        self.push_column(name, data, None);
+    }
+
+    /// Builder form of [`Table::push_unit`].
+    ///
+    /// # Panics
+    /// As [`Table::push`].
+    #[must_use]
+    pub fn with_unit(mut self, name: &str, data: ColumnData, unit: &str) -> Self {
+        self.push_unit(name, data, unit);
+        self
+    }
+
+    /// Adds a column with its unit (`"1"` for a dimensionless number) at the end.
+    ///
+    /// # Panics
+    /// As [`Table::push`].
+    pub fn push_unit(&mut self, name: &str, data: ColumnData, unit: &str) {
+        self.push_column(name, data, Some(unit.to_string()));
+    }
+
+    fn push_column(&mut self, name: &str, data: ColumnData, unit: Option<String>) {
         if let Some(first) = self.columns.first() {
             assert!(
                 first.data.len() == data.len(),
@@ -143,7 +192,16 @@ impl Table {
         self.columns.push(Column {
             name: name.to_string(),
             data,
+            unit,
         });
+    }
+
+    /// The unit of the column called `name`, if it has one.
+    pub fn unit(&self, name: &str) -> Option<&str> {
+        self.columns
+            .iter()
+            .find(|c| c.name == name)
+            .and_then(|c| c.unit.as_deref())
     }
 
     /// Number of rows (0 for a table without columns).
@@ -197,9 +255,13 @@ fn to_polars(col: &Column) -> pl::Column {
         ColumnData::F64(v) => pl::Float64Chunked::from_vec(name, v.clone()).into_series(),
         ColumnData::OptF64(v) => pl::Float64Chunked::from_slice_options(name, v).into_series(),
         ColumnData::I64(v) => pl::Int64Chunked::from_vec(name, v.clone()).into_series(),
+        ColumnData::OptI64(v) => pl::Int64Chunked::from_slice_options(name, v).into_series(),
         ColumnData::U64(v) => pl::UInt64Chunked::from_vec(name, v.clone()).into_series(),
         ColumnData::Str(v) => {
             pl::StringChunked::from_iter_values(name, v.iter().map(String::as_str)).into_series()
+        }
+        ColumnData::OptStr(v) => {
+            pl::StringChunked::from_iter_options(name, v.iter().map(Option::as_deref)).into_series()
         }
         ColumnData::Bool(v) => pl::BooleanChunked::from_slice(name, v).into_series(),
     };
@@ -207,31 +269,78 @@ fn to_polars(col: &Column) -> pl::Column {
 }
 
 /// Write as Parquet (zstd-compressed) atomically: the file is built in memory, then written
-/// with [`write_atomic`] (temporary file + rename). The column variants are recorded in the
-/// file metadata so that [`read_parquet`] restores them exactly.
+/// with [`write_atomic`] (temporary file + rename). The column variants and units are recorded
+/// in the file metadata so that [`read_parquet`] restores them exactly.
 ///
 /// # Errors
 /// [`Error::Output`] if the table has no columns or polars fails to encode it;
 /// [`Error::Io`] if the file cannot be written.
 pub fn write_parquet(path: &Path, table: &Table) -> Result<()> {
-    let fail = |msg: String| Error::Output(format!("cannot write '{}': {msg}", path.display()));
+    write_parquet_with(path, table, &[])
+}
+
+/// [`write_parquet`] with extra file-level key-value metadata (`(key, value)`; keys starting
+/// with `magopt.column_kinds`, `magopt.units` or `ARROW:` are reserved).
+///
+/// # Errors
+/// As [`write_parquet`].
+pub fn write_parquet_with(path: &Path, table: &Table, extra: &[(String, String)]) -> Result<()> {
+    let bytes = parquet_bytes(table, extra)
+        .map_err(|msg| Error::Output(format!("cannot write '{}': {msg}", path.display())))?;
+    write_atomic(path, &bytes)
+}
+
+/// The Parquet file of a table, in memory.
+fn parquet_bytes(
+    table: &Table,
+    extra: &[(String, String)],
+) -> std::result::Result<Vec<u8>, String> {
     if table.columns.is_empty() {
-        return Err(fail("the table has no columns".to_string()));
+        return Err("the table has no columns".to_string());
     }
     let columns: Vec<pl::Column> = table.columns.iter().map(to_polars).collect();
-    let mut df = pl::DataFrame::new(table.n_rows(), columns).map_err(|e| fail(e.to_string()))?;
+    let mut df = pl::DataFrame::new(table.n_rows(), columns).map_err(|e| e.to_string())?;
     let kinds: Vec<&str> = table.columns.iter().map(|c| c.data.kind()).collect();
-    let kinds_json = serde_json::Value::from(kinds).to_string();
+    let units: serde_json::Map<String, serde_json::Value> = table
+        .columns
+        .iter()
+        .filter_map(|c| Some((c.name.clone(), c.unit.clone()?.into())))
+        .collect();
+    // The Arrow schema polars writes, with each column's unit as field metadata. The
+    // writer keeps an `ARROW:schema` entry given to it instead of making its own.
+    let mut schema = pl::SchemaExt::to_arrow(df.schema().as_ref(), pl::CompatLevel::newest());
+    for (field, col) in schema.iter_values_mut().zip(&table.columns) {
+        if let Some(unit) = &col.unit {
+            let mut metadata = field.metadata.as_deref().cloned().unwrap_or_default();
+            metadata.insert(UNIT_FIELD_KEY.into(), unit.as_str().into());
+            field.metadata = Some(std::sync::Arc::new(metadata));
+        }
+    }
+    let arrow = polars_parquet::write::schema_to_metadata_key(&schema);
+    let mut kv = vec![
+        (arrow.key, arrow.value.unwrap_or_default()),
+        (
+            KINDS_KEY.to_string(),
+            serde_json::Value::from(kinds).to_string(),
+        ),
+        (
+            UNITS_KEY.to_string(),
+            serde_json::Value::Object(units).to_string(),
+        ),
+    ];
+    for (k, v) in extra {
+        if k == KINDS_KEY || k == UNITS_KEY || k.starts_with("ARROW:") {
+            return Err(format!("metadata key '{k}' is reserved"));
+        }
+        kv.push((k.clone(), v.clone()));
+    }
     let mut bytes = Vec::new();
     pl::ParquetWriter::new(&mut bytes)
         .with_compression(pl::ParquetCompression::Zstd(None))
-        .with_key_value_metadata(Some(pl::KeyValueMetadata::from_static(vec![(
-            KINDS_KEY.to_string(),
-            kinds_json,
-        )])))
+        .with_key_value_metadata(Some(pl::KeyValueMetadata::from_static(kv)))
         .finish(&mut df)
-        .map_err(|e| fail(e.to_string()))?;
-    write_atomic(path, &bytes)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes)
 }
 
 /// Converts a polars column back, as the variant `kind` if known (from the metadata), else
@@ -257,6 +366,12 @@ fn from_polars(col: &pl::Column, kind: Option<&str>) -> std::result::Result<Colu
             no_nulls("f64")?;
             ColumnData::F64(col.f64().map_err(err)?.into_no_null_iter().collect())
         }
+        (pl::DataType::Int64, Some("opt_i64")) => {
+            ColumnData::OptI64(col.i64().map_err(err)?.iter().collect())
+        }
+        (pl::DataType::Int64, None) if nulls > 0 => {
+            ColumnData::OptI64(col.i64().map_err(err)?.iter().collect())
+        }
         (pl::DataType::Int64, Some("i64") | None) => {
             no_nulls("i64")?;
             ColumnData::I64(col.i64().map_err(err)?.into_no_null_iter().collect())
@@ -265,6 +380,20 @@ fn from_polars(col: &pl::Column, kind: Option<&str>) -> std::result::Result<Colu
             no_nulls("u64")?;
             ColumnData::U64(col.u64().map_err(err)?.into_no_null_iter().collect())
         }
+        (pl::DataType::String, Some("opt_str")) => ColumnData::OptStr(
+            col.str()
+                .map_err(err)?
+                .iter()
+                .map(|v| v.map(str::to_string))
+                .collect(),
+        ),
+        (pl::DataType::String, None) if nulls > 0 => ColumnData::OptStr(
+            col.str()
+                .map_err(err)?
+                .iter()
+                .map(|v| v.map(str::to_string))
+                .collect(),
+        ),
         (pl::DataType::String, Some("str") | None) => {
             no_nulls("str")?;
             ColumnData::Str(
@@ -291,13 +420,23 @@ fn from_polars(col: &pl::Column, kind: Option<&str>) -> std::result::Result<Colu
 }
 
 /// Read a Parquet file written by [`write_parquet`] back into a [`Table`]. Every variant
-/// round-trips exactly (including NaN, `None`, empty strings and zero-row tables); see the
-/// module documentation for files written by other tools.
+/// round-trips exactly (including NaN, `None`, empty strings and zero-row tables), and so do
+/// the units; see the module documentation for files written by other tools (their units
+/// come from the Arrow field metadata `unit`, if any).
 ///
 /// # Errors
 /// [`Error::Io`] if the file cannot be read; [`Error::Output`] if it is not valid Parquet or
 /// holds a column type [`ColumnData`] cannot represent.
 pub fn read_parquet(path: &Path) -> Result<Table> {
+    read_parquet_with_metadata(path).map(|(table, _)| table)
+}
+
+/// [`read_parquet`], also returning the file's key-value metadata (`(key, value)`, in file
+/// order, including magopt's own entries and `ARROW:schema`).
+///
+/// # Errors
+/// As [`read_parquet`].
+pub fn read_parquet_with_metadata(path: &Path) -> Result<(Table, Vec<(String, String)>)> {
     let bytes = read_limited(path, MAX_CSV_INPUT, "Parquet file")?;
     let fail = |msg: String| Error::Output(format!("cannot read '{}': {msg}", path.display()));
     let mut reader = pl::ParquetReader::new(Cursor::new(bytes));
@@ -305,12 +444,29 @@ pub fn read_parquet(path: &Path) -> Result<Table> {
         .get_metadata()
         .map_err(|e| fail(e.to_string()))?
         .clone();
-    let kinds: Option<Vec<String>> = metadata
+    let kv: Vec<(String, String)> = metadata
         .key_value_metadata()
         .as_ref()
-        .and_then(|kv| kv.iter().find(|e| e.key == KINDS_KEY))
-        .and_then(|e| e.value.as_deref())
-        .and_then(|v| serde_json::from_str(v).ok());
+        .map(|kv| {
+            kv.iter()
+                .map(|e| (e.key.clone(), e.value.clone().unwrap_or_default()))
+                .collect()
+        })
+        .unwrap_or_default();
+    let entry = |key: &str| kv.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str());
+    let kinds: Option<Vec<String>> = entry(KINDS_KEY).and_then(|v| serde_json::from_str(v).ok());
+    let mut units: std::collections::HashMap<String, String> = entry(UNITS_KEY)
+        .and_then(|v| serde_json::from_str(v).ok())
+        .unwrap_or_default();
+    let schema = reader.schema().map_err(|e| fail(e.to_string()))?;
+    for field in schema.iter_values() {
+        let unit = field.metadata.as_ref().and_then(|m| m.get(UNIT_FIELD_KEY));
+        if let Some(unit) = unit {
+            units
+                .entry(field.name.to_string())
+                .or_insert_with(|| unit.to_string());
+        }
+    }
     let df = reader.finish().map_err(|e| fail(e.to_string()))?;
     let kinds = kinds.filter(|k| k.len() == df.width());
     let mut table = Table::new();
@@ -318,12 +474,11 @@ pub fn read_parquet(path: &Path) -> Result<Table> {
         let kind = kinds.as_ref().map(|k| k[i].as_str());
         let data = from_polars(col, kind)
             .map_err(|msg| fail(format!("column '{}': {msg}", col.name())))?;
-        table.columns.push(Column {
-            name: col.name().to_string(),
-            data,
-        });
+        let name = col.name().to_string();
+        let unit = units.remove(&name);
+        table.columns.push(Column { name, data, unit });
     }
-    Ok(table)
+    Ok((table, kv))
 }
 
 /// Largest table file (CSV or Parquet) the readers take, bytes.
@@ -422,6 +577,21 @@ mod tests {
                 ),
             )
             .with("b", ColumnData::Bool(vec![true, false, false, true, true]))
+            .with_unit(
+                "oi_N",
+                ColumnData::OptI64(vec![None, Some(-3), Some(0), None, Some(i64::MAX)]),
+                "N",
+            )
+            .with(
+                "os",
+                ColumnData::OptStr(vec![
+                    None,
+                    Some(String::new()),
+                    Some("x".into()),
+                    None,
+                    None,
+                ]),
+            )
     }
 
     /// Bitwise comparison, so that NaN == NaN and -0.0 != 0.0.
@@ -429,6 +599,7 @@ mod tests {
         assert_eq!(a.columns.len(), b.columns.len());
         for (x, y) in a.columns.iter().zip(&b.columns) {
             assert_eq!(x.name, y.name);
+            assert_eq!(x.unit, y.unit, "unit of column {}", x.name);
             match (&x.data, &y.data) {
                 (ColumnData::F64(p), ColumnData::F64(q)) => {
                     let p: Vec<u64> = p.iter().map(|v| v.to_bits()).collect();
@@ -493,6 +664,36 @@ mod tests {
     }
 
     #[test]
+    fn parquet_units_and_extra_metadata() {
+        let dir = test_dir("parquet-units");
+        let path = dir.join("t.parquet");
+        let t = Table::new()
+            .with_unit("time_s", ColumnData::F64(vec![0.5, 1.0]), "s")
+            .with_unit("n", ColumnData::I64(vec![3, 4]), "1")
+            .with("label", ColumnData::Str(vec!["a".into(), "b".into()]));
+        let extra = [("magopt.input".to_string(), "{\"path\":\"x\"}".to_string())];
+        write_parquet_with(&path, &t, &extra).unwrap();
+        let (back, kv) = read_parquet_with_metadata(&path).unwrap();
+        assert_same(&t, &back);
+        assert_eq!(back.unit("time_s"), Some("s"));
+        assert_eq!(back.unit("label"), None);
+        let get = |k: &str| kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
+        assert_eq!(get("magopt.input").as_deref(), Some("{\"path\":\"x\"}"));
+        let units: serde_json::Value = serde_json::from_str(&get(UNITS_KEY).unwrap()).unwrap();
+        assert_eq!(units, serde_json::json!({"time_s": "s", "n": "1"}));
+        assert!(get("ARROW:schema").is_some());
+        // the units also come back from the Arrow field metadata alone
+        let mut reader = pl::ParquetReader::new(Cursor::new(std::fs::read(&path).unwrap()));
+        let schema = reader.schema().unwrap();
+        let field = schema.get("time_s").unwrap();
+        let unit = field.metadata.as_ref().and_then(|m| m.get(UNIT_FIELD_KEY));
+        assert_eq!(unit.map(|u| u.as_str()), Some("s"));
+        let reserved = [(UNITS_KEY.to_string(), String::new())];
+        assert!(write_parquet_with(&path, &t, &reserved).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn parquet_round_trip_opt_f64_without_nulls_stays_opt() {
         let dir = test_dir("parquet-opt");
         let path = dir.join("t.parquet");
@@ -514,7 +715,9 @@ mod tests {
             .with("i", ColumnData::I64(vec![]))
             .with("u", ColumnData::U64(vec![]))
             .with("s", ColumnData::Str(vec![]))
-            .with("b", ColumnData::Bool(vec![]));
+            .with("b", ColumnData::Bool(vec![]))
+            .with("oi", ColumnData::OptI64(vec![]))
+            .with("os", ColumnData::OptStr(vec![]));
         write_parquet(&path, &t).unwrap();
         let back = read_parquet(&path).unwrap();
         assert_eq!(back.n_rows(), 0);
@@ -594,8 +797,10 @@ mod tests {
                 ColumnData::F64(_) => ColumnData::F64(vec![]),
                 ColumnData::OptF64(_) => ColumnData::OptF64(vec![]),
                 ColumnData::I64(_) => ColumnData::I64(vec![]),
+                ColumnData::OptI64(_) => ColumnData::OptI64(vec![]),
                 ColumnData::U64(_) => ColumnData::U64(vec![]),
                 ColumnData::Str(_) => ColumnData::Str(vec![]),
+                ColumnData::OptStr(_) => ColumnData::OptStr(vec![]),
                 ColumnData::Bool(_) => ColumnData::Bool(vec![]),
             };
         }

@@ -178,6 +178,9 @@ fn numeric_column(table: &Table, file: &Path, name: &str) -> Result<Vec<f64>> {
         Some(ColumnData::F64(v)) => Ok(v.clone()),
         Some(ColumnData::OptF64(v)) => Ok(v.iter().map(|x| x.unwrap_or(f64::NAN)).collect()),
         Some(ColumnData::I64(v)) => Ok(v.iter().map(|x| *x as f64).collect()),
+        Some(ColumnData::OptI64(v)) => {
+            Ok(v.iter().map(|x| x.map_or(f64::NAN, |x| x as f64)).collect())
+        }
         Some(ColumnData::U64(v)) => Ok(v.iter().map(|x| *x as f64).collect()),
         Some(other) => Err(column_error(
             file,

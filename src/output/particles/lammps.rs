@@ -99,6 +99,46 @@ pub fn read_lammps_dump(text: &str) -> Result<ParticleFrame> {
     Ok(frame)
 }
 
+/// The text of each frame of a dump: every frame starts with the line the first one starts
+/// with (`ITEM: TIME` for magopt's dumps, `ITEM: TIMESTEP` for plain LAMMPS ones).
+pub fn lammps_frames(text: &str) -> Vec<&str> {
+    let Some(marker) = text.lines().next().map(str::trim_end) else {
+        return Vec::new();
+    };
+    let mut starts: Vec<usize> = Vec::new();
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        if line.trim_end() == marker {
+            starts.push(offset);
+        }
+        offset += line.len();
+    }
+    starts
+        .iter()
+        .enumerate()
+        .map(|(k, &a)| &text[a..starts.get(k + 1).copied().unwrap_or(text.len())])
+        .collect()
+}
+
+/// Reads frame `index` of a (multi-frame) dump written by [`lammps_dump`]; negative `index`
+/// counts from the end, −1 the last frame. See [`read_lammps_dump`].
+///
+/// # Errors
+/// [`Error::Input`] if there is no such frame or it does not parse.
+pub fn read_lammps_dump_frame(text: &str, index: isize) -> Result<ParticleFrame> {
+    let frames = lammps_frames(text);
+    let k = if index < 0 {
+        frames.len() as isize + index
+    } else {
+        index
+    };
+    let frame = usize::try_from(k)
+        .ok()
+        .and_then(|k| frames.get(k))
+        .ok_or_else(|| Error::input(format!("no frame {index} in {} frames", frames.len())))?;
+    read_lammps_dump(frame)
+}
+
 /// The cell from the BOX BOUNDS line and its three `lo hi` lines.
 fn bounds(line: &str, rows: &[&str]) -> Result<Cell> {
     let flags: Vec<&str> = line.split_whitespace().skip(3).collect();

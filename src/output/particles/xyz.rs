@@ -94,12 +94,7 @@ fn row(frame: &ParticleFrame, i: usize) -> String {
 /// numbers, 1-based; negative `index` counts from the end, −1 the last frame).
 pub fn read_xyz(text: &str, index: isize) -> Result<ParticleFrame> {
     let lines: Vec<&str> = text.lines().collect();
-    let mut starts = Vec::new();
-    let mut at = 0;
-    while at < lines.len() && !lines[at].trim().is_empty() {
-        starts.push(at);
-        at += 2 + count(lines[at])?;
-    }
+    let starts = frame_starts(&lines)?;
     let k = if index < 0 {
         starts.len() as isize + index
     } else {
@@ -114,6 +109,26 @@ pub fn read_xyz(text: &str, index: isize) -> Result<ParticleFrame> {
         .get(start + 2..start + 2 + n)
         .ok_or_else(|| Error::input("extended XYZ frame is cut short"))?;
     parse_frame(lines[start + 1], rows)
+}
+
+/// Number of frames in an extended XYZ text (counted from the particle-count lines).
+///
+/// # Errors
+/// [`Error::Input`] if a frame's first line is not a particle count.
+pub fn xyz_frame_count(text: &str) -> Result<usize> {
+    let lines: Vec<&str> = text.lines().collect();
+    frame_starts(&lines).map(|s| s.len())
+}
+
+/// The first line of every frame.
+fn frame_starts(lines: &[&str]) -> Result<Vec<usize>> {
+    let mut starts = Vec::new();
+    let mut at = 0;
+    while at < lines.len() && !lines[at].trim().is_empty() {
+        starts.push(at);
+        at += 2 + count(lines[at])?;
+    }
+    Ok(starts)
 }
 
 fn count(line: &str) -> Result<usize> {
