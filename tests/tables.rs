@@ -234,17 +234,17 @@ fn analyze_reads_every_particle_format_and_chooses_frames() {
         assert_eq!(s, reference, "{file}");
     }
     // the multi-frame trajectory: the last frame by default, the first with --frame 0
-    let last = summary_of(&["analyze", &path("cycle.xyz"), "--json"]);
-    let minus_one = summary_of(&["analyze", &path("cycle.xyz"), "--frame", "-1", "--json"]);
+    let last = summary_of(&["analyze", &path("trajectory.xyz"), "--json"]);
+    let minus_one = summary_of(&["analyze", &path("trajectory.xyz"), "--frame", "-1", "--json"]);
     assert_eq!(last, minus_one);
-    let first = summary_of(&["analyze", &path("cycle.xyz"), "--frame", "0", "--json"]);
+    let first = summary_of(&["analyze", &path("trajectory.xyz"), "--frame", "0", "--json"]);
     let start = summary_of(&["analyze", &path("compression-start.xyz"), "--json"]);
     assert_eq!(first, start);
     // what --out records
     let out = dir.join("analysis");
     let (code, _, err) = magopt(&[
         "analyze",
-        &path("cycle.xyz"),
+        &path("trajectory.xyz"),
         "--frame",
         "0",
         "--out",
@@ -261,7 +261,7 @@ fn analyze_reads_every_particle_format_and_chooses_frames() {
     let (cells, kv) = read_parquet_with_metadata(&out.join("cells.parquet")).unwrap();
     assert!(kv
         .iter()
-        .any(|(k, v)| k == "magopt.input" && v.contains("cycle.xyz")));
+        .any(|(k, v)| k == "magopt.input" && v.contains("trajectory.xyz")));
     assert!(kv.iter().any(|(k, _)| k == "magopt.version"));
     assert_eq!(cells.unit("area"), Some("m2"));
     // unbounded cells: no area, null (not NaN)
@@ -277,7 +277,7 @@ fn analyze_reads_every_particle_format_and_chooses_frames() {
     // bad frame, bad extension: one line, exit 2
     for (args, needle) in [
         (
-            vec!["analyze", &path("cycle.xyz"), "--frame", "99"],
+            vec!["analyze", &path("trajectory.xyz"), "--frame", "99"],
             "out of range",
         ),
         (
