@@ -235,7 +235,13 @@ fn analyze_reads_every_particle_format_and_chooses_frames() {
     }
     // the multi-frame trajectory: the last frame by default, the first with --frame 0
     let last = summary_of(&["analyze", &path("trajectory.xyz"), "--json"]);
-    let minus_one = summary_of(&["analyze", &path("trajectory.xyz"), "--frame", "-1", "--json"]);
+    let minus_one = summary_of(&[
+        "analyze",
+        &path("trajectory.xyz"),
+        "--frame",
+        "-1",
+        "--json",
+    ]);
     assert_eq!(last, minus_one);
     let first = summary_of(&["analyze", &path("trajectory.xyz"), "--frame", "0", "--json"]);
     let start = summary_of(&["analyze", &path("compression-start.xyz"), "--json"]);

@@ -35,8 +35,8 @@ mod vtk;
 mod xyz;
 
 pub use lammps::{lammps_dump, lammps_frames, read_lammps_dump, read_lammps_dump_frame};
-pub use parquet::table;
-pub use vtk::legacy_vtk;
+pub use parquet::{read_particle_table, table, write_particle_table};
+pub use vtk::{legacy_vtk, read_vtk};
 pub use xyz::{append_xyz, extended_xyz, read_xyz, write_xyz_frames, xyz_frame_count};
 
 use std::path::Path;
@@ -44,7 +44,6 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::atomic::write_atomic;
-use super::table::write_parquet;
 use crate::{Error, Result};
 
 /// Species symbol of every particle: ASE's dummy element (see the module documentation).
@@ -219,7 +218,7 @@ impl ParticleFrame {
         write_atomic(&file("xyz"), extended_xyz(self).as_bytes())?;
         write_atomic(&file("dump"), lammps_dump(self, 0)?.as_bytes())?;
         write_atomic(&file("vtk"), legacy_vtk(self).as_bytes())?;
-        write_parquet(&file("parquet"), &table(self))
+        write_particle_table(&file("parquet"), self)
     }
 }
 

@@ -18,8 +18,9 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::atomic::write_atomic;
-use super::particles::{extended_xyz, lammps_dump, legacy_vtk, table, ParticleFrame};
-use super::table::write_parquet;
+use super::particles::{
+    extended_xyz, lammps_dump, legacy_vtk, write_particle_table, ParticleFrame,
+};
 use crate::units::{parse_quantity, Dimension};
 use crate::{Error, Result};
 
@@ -277,7 +278,7 @@ impl<'a> Recorder<'a> {
                 Format::Xyz => write_atomic(&path, xyz.as_bytes())?,
                 Format::Dump => write_atomic(&path, lammps_dump(frame, step)?.as_bytes())?,
                 Format::Vtk => write_atomic(&path, legacy_vtk(frame).as_bytes())?,
-                Format::Parquet => write_parquet(&path, &table(frame))?,
+                Format::Parquet => write_particle_table(&path, frame)?,
             }
         }
         let part = self.dir.join("trajectory.xyz.part");

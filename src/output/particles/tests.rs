@@ -32,6 +32,11 @@ fn sample() -> ParticleFrame {
                 .map(|k| Vector3::new(f(k, 4.0), f(k, 5.0), 1e300))
                 .collect(),
         ))
+        .with(Property::scalar(
+            "cos_theta",
+            "1",
+            (0..n).map(|k| f(k, 6.0).abs()).collect(),
+        ))
 }
 
 /// The frame as a reader without units or species symbols returns it.
@@ -50,7 +55,7 @@ fn extended_xyz_round_trips_bit_exact() {
     assert!(lines[1].contains("pbc=\"T F F\""));
     assert!(lines[1].contains(
         "Properties=species:S:1:type:I:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
-         force_magnitude:R:1:angular_velocity:R:3 "
+         force_magnitude:R:1:angular_velocity:R:3:cos_theta:R:1 "
     ));
 }
 
@@ -85,7 +90,7 @@ fn lammps_dump_round_trips_bit_exact() {
     assert!(text.contains("ITEM: BOX BOUNDS pp ff ff\n"));
     assert!(text.contains(
         "ITEM: ATOMS id type x y z radius vx vy vz mass force_magnitude \
-         angular_velocity_x angular_velocity_y angular_velocity_z\n"
+         angular_velocity_x angular_velocity_y angular_velocity_z cos_theta\n"
     ));
 }
 
@@ -160,4 +165,25 @@ fn bounding_box_encloses_the_spheres() {
     assert_eq!(cell.vectors[0].x, 2.75);
     assert_eq!(cell.vectors[2].z, 2.25);
     assert_eq!(cell.pbc, [false; 3]);
+}
+
+#[test]
+fn legacy_vtk_round_trips_bit_exact() {
+    let frame = sample();
+    assert_eq!(read_vtk(&legacy_vtk(&frame)).unwrap(), without_units(frame));
+}
+
+#[test]
+fn parquet_particle_table_round_trips_whole() {
+    let frame = sample();
+    let dir = std::env::temp_dir().join(format!("magopt-particles-rt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("frame.parquet");
+    write_particle_table(&path, &frame).unwrap();
+    assert_eq!(read_particle_table(&path).unwrap(), frame);
+    let t = read_parquet(&path).unwrap();
+    assert!(t.column("cos_theta").is_some(), "dimensionless: no suffix");
+    assert_eq!(t.unit("angular_velocity_x_rad_per_s"), Some("rad/s"));
+    assert_eq!(t.unit("x_m"), Some("m"));
+    std::fs::remove_dir_all(dir).ok();
 }

@@ -1,20 +1,33 @@
 //! Legacy VTK POLYDATA (ParaView): the particles as POINTS (m) with one VERTICES cell each,
-//! the time (s) as field data `TIME`, and POINT_DATA `id`, `type`, `radius` (m, the scalar to
-//! scale sphere glyphs by), `velocity` (m/s), `mass` (kg) and the extra columns (scalars or vectors).
+//! field data `TIME` (s), `ORIGIN` and `LATTICE` (the cell, m: origin, then a, b, c) and `PBC`
+//! (1 = periodic along a, b, c), and POINT_DATA `id`, `type`, `radius` (m, the scalar to scale
+//! sphere glyphs by), `velocity` (m/s), `mass` (kg) and the extra columns (scalars or vectors).
+//! [`read_vtk`] reads it back (the extra columns without their units, which VTK has no place
+//! for; `docs/particle-files.md` lists them).
 
 use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::{ParticleFrame, Values};
+use super::{number, Cell, ParticleFrame, Property, Values};
+use crate::{Error, Result};
 
 /// One frame as legacy VTK text.
 pub fn legacy_vtk(frame: &ParticleFrame) -> String {
     let n = frame.len();
+    let c = &frame.cell;
+    let v = |x: &Vector3<f64>| format!("{:?} {:?} {:?}", x.x, x.y, x.z);
+    let lattice: Vec<String> = c.vectors.iter().map(v).collect();
+    let pbc: Vec<&str> = c.pbc.iter().map(|p| if *p { "1" } else { "0" }).collect();
     let mut text = format!(
         "# vtk DataFile Version 3.0\nmagopt particles, t = {:?} s, SI units\nASCII\n\
-         DATASET POLYDATA\nFIELD FieldData 1\nTIME 1 1 double\n{:?}\nPOINTS {n} double\n",
-        frame.time, frame.time
+         DATASET POLYDATA\nFIELD FieldData 4\nTIME 1 1 double\n{:?}\nORIGIN 3 1 double\n{}\n\
+         LATTICE 9 1 double\n{}\nPBC 3 1 int\n{}\nPOINTS {n} double\n",
+        frame.time,
+        frame.time,
+        v(&c.origin),
+        lattice.join(" "),
+        pbc.join(" ")
     );
     vectors_body(&mut text, &frame.position);
     let _ = writeln!(text, "VERTICES {n} {}", 2 * n);
@@ -52,5 +65,115 @@ fn vectors(text: &mut String, name: &str, values: &[Vector3<f64>]) {
 fn vectors_body(text: &mut String, values: &[Vector3<f64>]) {
     for v in values {
         let _ = writeln!(text, "{:?} {:?} {:?}", v.x, v.y, v.z);
+    }
+}
+
+/// The words of a legacy VTK file after its three header lines.
+struct Words<'a>(Box<dyn Iterator<Item = &'a str> + 'a>);
+
+impl<'a> Words<'a> {
+    fn next(&mut self) -> Result<&'a str> {
+        self.0
+            .next()
+            .ok_or_else(|| Error::input("VTK file is cut short"))
+    }
+
+    fn count(&mut self) -> Result<usize> {
+        count(self.next()?)
+    }
+
+    fn numbers(&mut self, n: usize) -> Result<Vec<f64>> {
+        (0..n).map(|_| number(self.next()?)).collect()
+    }
+}
+
+/// Reads a file written by [`legacy_vtk`].
+pub fn read_vtk(text: &str) -> Result<ParticleFrame> {
+    let mut w = Words(Box::new(
+        text.lines().skip(3).flat_map(str::split_whitespace),
+    ));
+    let (mut time, mut cell) = (0.0, Cell::aligned(Vector3::zeros(), Vector3::zeros()));
+    let mut frame: Option<ParticleFrame> = None;
+    while let Some(word) = w.0.next() {
+        match word {
+            "DATASET" | "POINT_DATA" => {
+                w.next()?;
+            }
+            "FIELD" => {
+                w.next()?;
+                for _ in 0..w.count()? {
+                    let name = w.next()?;
+                    let (c, t) = (w.count()?, w.count()?);
+                    w.next()?;
+                    field(name, &w.numbers(c * t)?, &mut time, &mut cell);
+                }
+            }
+            "POINTS" => {
+                let n = w.count()?;
+                w.next()?;
+                let x = w.numbers(3 * n)?;
+                let mut f = ParticleFrame::new(time, cell.clone(), vec![1; n]);
+                f.position = x.chunks(3).map(Vector3::from_column_slice).collect();
+                frame = Some(f);
+            }
+            "VERTICES" => {
+                w.next()?;
+                let entries = w.count()?;
+                w.numbers(entries)?;
+            }
+            "SCALARS" | "VECTORS" => {
+                let f = frame
+                    .as_mut()
+                    .ok_or_else(|| Error::input("VTK point data before POINTS"))?;
+                let name = w.next()?.to_string();
+                w.next()?;
+                let components = if word == "SCALARS" {
+                    let c = w.count()?;
+                    w.next()?; // LOOKUP_TABLE
+                    w.next()?; // default
+                    c
+                } else {
+                    3
+                };
+                let x = w.numbers(components * f.len())?;
+                point_data(f, name, components, &x);
+            }
+            other => return Err(Error::input(format!("unexpected VTK word '{other}'"))),
+        }
+    }
+    frame.ok_or_else(|| Error::input("VTK file has no POINTS"))
+}
+
+fn count(word: &str) -> Result<usize> {
+    word.parse()
+        .map_err(|_| Error::input(format!("not a count: '{word}'")))
+}
+
+/// Applies a field-data array of the file header.
+fn field(name: &str, x: &[f64], time: &mut f64, cell: &mut Cell) {
+    match (name, x.len()) {
+        ("TIME", 1) => *time = x[0],
+        ("ORIGIN", 3) => cell.origin = Vector3::from_column_slice(x),
+        ("LATTICE", 9) => {
+            for (k, v) in cell.vectors.iter_mut().enumerate() {
+                *v = Vector3::from_column_slice(&x[3 * k..3 * k + 3]);
+            }
+        }
+        ("PBC", 3) => cell.pbc = [x[0] != 0.0, x[1] != 0.0, x[2] != 0.0],
+        _ => {}
+    }
+}
+
+/// Stores a POINT_DATA array in its column.
+fn point_data(frame: &mut ParticleFrame, name: String, components: usize, x: &[f64]) {
+    let vectors = || x.chunks(3).map(Vector3::from_column_slice).collect();
+    match (name.as_str(), components) {
+        ("id", 1) => frame.id = x.iter().map(|v| *v as u64).collect(),
+        ("type", 1) => frame.kind = x.iter().map(|v| *v as u32).collect(),
+        ("radius", 1) => frame.radius = x.to_vec(),
+        ("mass", 1) => frame.mass = x.to_vec(),
+        ("velocity", 3) => frame.velocity = vectors(),
+        (_, 1) => frame.extra.push(Property::scalar(&name, "", x.to_vec())),
+        _ => frame.extra.push(Property::vector(&name, "", vectors())),
     }
 }
