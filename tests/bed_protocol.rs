@@ -129,7 +129,7 @@ fn snapshots_follow_the_contract() {
     let lines: Vec<&str> = xyz.lines().collect();
     assert_eq!(lines[0], "24");
     assert!(lines[1].contains(
-        "Properties=species:S:1:type:I:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
+        "Properties=type:I:1:species:S:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
          force_magnitude:R:1 "
     ));
     assert_eq!(lines.len(), 26);

@@ -54,7 +54,7 @@ fn extended_xyz_round_trips_bit_exact() {
     assert_eq!((lines[0], lines.len()), ("5", 7));
     assert!(lines[1].contains("pbc=\"T F F\""));
     assert!(lines[1].contains(
-        "Properties=species:S:1:type:I:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
+        "Properties=type:I:1:species:S:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
          force_magnitude:R:1:angular_velocity:R:3:cos_theta:R:1 "
     ));
 }
@@ -107,15 +107,16 @@ fn legacy_vtk_holds_points_vertices_and_point_data() {
     let text = legacy_vtk(&frame);
     for part in [
         "DATASET POLYDATA\n",
+        "FIELD FieldData 4\nTIME 1 1 double\n",
+        "PBC 3 1 int\n1 0 0\n",
         "POINTS 5 double\n",
         "VERTICES 5 10\n1 0\n",
-        "POINT_DATA 5\n",
-        "SCALARS id long 1\nLOOKUP_TABLE default\n1\n2\n",
-        "SCALARS type int 1\nLOOKUP_TABLE default\n1\n2\n1\n",
-        "SCALARS radius double 1\n",
+        "POINT_DATA 5\nSCALARS radius double 1\nLOOKUP_TABLE default\n",
         "VECTORS velocity double\n",
-        "SCALARS force_magnitude double 1\n",
-        "VECTORS angular_velocity double\n",
+        "FIELD FieldData 6\nid 1 5 long\n1\n2\n",
+        "type 1 5 int\n1\n2\n1\n",
+        "force_magnitude 1 5 double\n",
+        "angular_velocity 3 5 double\n",
     ] {
         assert!(text.contains(part), "{part}");
     }

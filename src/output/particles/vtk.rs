@@ -1,7 +1,8 @@
 //! Legacy VTK POLYDATA (ParaView): the particles as POINTS (m) with one VERTICES cell each,
 //! field data `TIME` (s), `ORIGIN` and `LATTICE` (the cell, m: origin, then a, b, c) and `PBC`
-//! (1 = periodic along a, b, c), and POINT_DATA `id`, `type`, `radius` (m, the scalar to scale
-//! sphere glyphs by), `velocity` (m/s), `mass` (kg) and the extra columns (scalars or vectors).
+//! (1 = periodic along a, b, c), and POINT_DATA: `radius` (m, the active scalars that sphere
+//! glyphs scale by), `velocity` (m/s, the active vectors), and a FIELD block with `id`, `type`,
+//! `mass` (kg) and the extra columns (1 or 3 components).
 //! [`read_vtk`] reads it back (the extra columns without their units, which VTK has no place
 //! for; `docs/particle-files.md` lists them).
 
@@ -9,7 +10,7 @@ use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::{number, Cell, ParticleFrame, Property, Values};
+use super::{number, Cell, ParticleFrame, Property};
 use crate::{Error, Result};
 
 /// One frame as legacy VTK text.
@@ -35,18 +36,57 @@ pub fn legacy_vtk(frame: &ParticleFrame) -> String {
         let _ = writeln!(text, "1 {i}");
     }
     let _ = writeln!(text, "POINT_DATA {n}");
-    scalars(&mut text, "id", "long", &frame.id);
-    scalars(&mut text, "type", "int", &frame.kind);
+    // radius first (the active scalars, which glyph filters scale by), velocity the active
+    // vectors; everything else in a FIELD block, which VTK's readers always load (they load
+    // only the first SCALARS and VECTORS blocks unless told otherwise).
     scalars(&mut text, "radius", "double", &frame.radius);
     vectors(&mut text, "velocity", &frame.velocity);
-    scalars(&mut text, "mass", "double", &frame.mass);
+    let _ = writeln!(text, "FIELD FieldData {}", 3 + frame.extra.len());
+    array(
+        &mut text,
+        "id",
+        1,
+        "long",
+        frame.id.iter().map(|x| format!("{x}")),
+    );
+    array(
+        &mut text,
+        "type",
+        1,
+        "int",
+        frame.kind.iter().map(|x| format!("{x}")),
+    );
+    array(
+        &mut text,
+        "mass",
+        1,
+        "double",
+        frame.mass.iter().map(|x| format!("{x:?}")),
+    );
     for p in &frame.extra {
-        match &p.values {
-            Values::Scalar(v) => scalars(&mut text, &p.name, "double", v),
-            Values::Vector(v) => vectors(&mut text, &p.name, v),
-        }
+        let rows = (0..frame.len()).map(|i| {
+            let c: Vec<String> = (0..p.components())
+                .map(|k| format!("{:?}", p.get(i, k)))
+                .collect();
+            c.join(" ")
+        });
+        array(&mut text, &p.name, p.components(), "double", rows);
     }
     text
+}
+
+/// A FIELD array of one row per particle.
+fn array(
+    text: &mut String,
+    name: &str,
+    components: usize,
+    kind: &str,
+    rows: impl ExactSizeIterator<Item = String>,
+) {
+    let _ = writeln!(text, "{name} {components} {} {kind}", rows.len());
+    for row in rows {
+        let _ = writeln!(text, "{row}");
+    }
 }
 
 /// A SCALARS block; `{:?}` prints integers as integers and floats so they read back exactly.
@@ -102,10 +142,14 @@ pub fn read_vtk(text: &str) -> Result<ParticleFrame> {
             "FIELD" => {
                 w.next()?;
                 for _ in 0..w.count()? {
-                    let name = w.next()?;
+                    let name = w.next()?.to_string();
                     let (c, t) = (w.count()?, w.count()?);
                     w.next()?;
-                    field(name, &w.numbers(c * t)?, &mut time, &mut cell);
+                    let x = w.numbers(c * t)?;
+                    match frame.as_mut() {
+                        Some(f) => point_data(f, name, c, &x),
+                        None => field(&name, &x, &mut time, &mut cell),
+                    }
                 }
             }
             "POINTS" => {

@@ -12,8 +12,10 @@ use super::{fill_numbers, number, Cell, ParticleFrame, Property};
 use crate::output::atomic::write_atomic;
 use crate::{Error, Result};
 
-/// The fixed leading columns of `Properties`.
-const FIXED: &str = "species:S:1:type:I:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3";
+/// The fixed leading columns of `Properties`. `type` comes before `species`: OVITO maps both to
+/// its Particle Type and keeps the first, and the numeric type is the one that tells species
+/// apart (every species symbol is `X`).
+const FIXED: &str = "type:I:1:species:S:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3";
 
 /// One frame as extended XYZ text.
 pub fn extended_xyz(frame: &ParticleFrame) -> String {
@@ -68,8 +70,8 @@ fn row(frame: &ParticleFrame, i: usize) -> String {
     let q = v * m;
     let mut line = format!(
         "{} {} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {m:?} {:?} {:?} {:?}",
-        frame.species[i],
         frame.kind[i],
+        frame.species[i],
         p.x,
         p.y,
         p.z,
@@ -237,10 +239,10 @@ fn fill(frame: &mut ParticleFrame, i: usize, row: &str) -> Result<()> {
     if w.len() < 2 {
         return Err(Error::input(format!("short row: '{row}'")));
     }
-    frame.species[i] = w[0].to_string();
-    frame.kind[i] = w[1]
+    frame.kind[i] = w[0]
         .parse()
-        .map_err(|_| Error::input(format!("bad type '{}'", w[1])))?;
+        .map_err(|_| Error::input(format!("bad type '{}'", w[0])))?;
+    frame.species[i] = w[1].to_string();
     let mut x: Vec<f64> = w[2..].iter().map(|s| number(s)).collect::<Result<_>>()?;
     if x.len() < 11 {
         return Err(Error::input(format!("short row: '{row}'")));
