@@ -3,10 +3,13 @@
 //! the runner expands the grid, runs (point, replicate) pairs in parallel, saves each run as it
 //! finishes, aggregates tables, optimizes free parameters and plots.
 
+pub mod design_spec;
+pub mod domain;
 pub mod model;
 pub mod optimize;
 pub mod param;
 pub mod plot;
 pub mod records;
 pub mod runner;
+pub mod sensitivity_tables;
 pub mod spec;

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 use super::model::{ParamKind, RunResult, StudyModel, Value};
+use super::sensitivity_tables::{distribution_table, sensitivity_table};
 use super::spec::{RunSpec, Study};
 use crate::numerics::stats::Stats;
 use crate::output::atomic::{write_atomic, write_json_atomic};
@@ -606,6 +607,14 @@ pub fn write_results<M: StudyModel>(
 ) -> Result<()> {
     let cols = columns(model, study);
     write_parquet(&dir.join("summary.parquet"), &summary_table(&cols, records))?;
+    if let Some(design) = &study.design {
+        let metrics = &study.metrics;
+        if let Some(t) = sensitivity_table(design, metrics, records, study.seed) {
+            write_parquet(&dir.join("sensitivity.parquet"), &t)?;
+        }
+        let distribution = distribution_table(metrics, records);
+        write_parquet(&dir.join("distribution.parquet"), &distribution)?;
+    }
     let mut prov = provenance(model, study, command);
     if let Some(resume) = resume {
         prov["resume"] = resume;

@@ -21,6 +21,8 @@
 
 use serde::Deserialize;
 
+use super::design_spec::{Design, DesignKind};
+use super::domain::{self, DesignAxis};
 use super::model::{ParamKind, ParamSpec, Schedule, StudyModel, Value};
 use crate::output::snapshots::Format;
 use crate::{Error, Result};
@@ -37,6 +39,17 @@ struct RawStudy {
     sweep: Option<toml::Table>,
     optimize: Option<RawOptimize>,
     snapshots: Option<RawSnapshots>,
+    design: Option<RawDesign>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDesign {
+    method: String,
+    samples: i64,
+    levels: Option<i64>,
+    bootstrap: Option<i64>,
+    parameters: toml::Table,
 }
 
 #[derive(Debug, Deserialize)]
@@ -108,6 +121,8 @@ pub struct Study<M: StudyModel> {
     pub axes: Vec<Axis>,
     /// The optimization, if any.
     pub optimize: Option<OptimizeSpec>,
+    /// The `[design]` table, if the points come from a design instead of a grid.
+    pub design: Option<Design>,
     /// The `[snapshots]` table: every run writes its particle frames (its model's own moments
     /// and these) into `runs/<id>/snapshots/`.
     pub snapshots: Option<Schedule>,
@@ -178,6 +193,19 @@ impl<M: StudyModel> Study<M> {
             .transpose()
             .map_err(at)?;
         let snapshots = raw.snapshots.map(snapshots).transpose().map_err(at)?;
+        let design = match raw.design {
+            Some(_) if !axes.is_empty() => {
+                return Err(at(Error::input(
+                    "design: a study has either [sweep] (a grid) or [design], not both",
+                )));
+            }
+            Some(d) => Some(design(model, d, seed).map_err(at)?),
+            None => None,
+        };
+        let axes = match &design {
+            Some(d) => d.axes(),
+            None => axes,
+        };
         let name = match raw.name {
             Some(name) => plain_name(&name).map_err(at)?,
             None => std::path::Path::new(origin)
@@ -202,15 +230,19 @@ impl<M: StudyModel> Study<M> {
             base_values,
             axes,
             optimize,
+            design,
             snapshots,
             text: text.to_string(),
         };
-        let points = study
-            .axes
-            .iter()
-            .try_fold(1usize, |n, a| n.checked_mul(a.values.len()))
-            .and_then(|n| n.checked_mul(study.replicates))
-            .filter(|&n| n <= MAX_RUNS);
+        let points = match &study.design {
+            Some(d) => Some(d.points.len()),
+            None => study
+                .axes
+                .iter()
+                .try_fold(1usize, |n, a| n.checked_mul(a.values.len())),
+        }
+        .and_then(|n| n.checked_mul(study.replicates))
+        .filter(|&n| n <= MAX_RUNS);
         if points.is_none() {
             return Err(at(Error::input(format!(
                 "the grid × replicates has more than {MAX_RUNS} runs (split the study)"
@@ -271,8 +303,12 @@ impl<M: StudyModel> Study<M> {
         Self::parse(model, &text, name)
     }
 
-    /// Every grid point (cartesian product of the axes, the last axis fastest).
+    /// Every point: the design's, or the grid's (cartesian product of the axes, the last axis
+    /// fastest).
     pub fn points(&self) -> Vec<Vec<Value>> {
+        if let Some(d) = &self.design {
+            return d.points.clone();
+        }
         self.axes.iter().fold(vec![Vec::new()], |acc, axis| {
             acc.iter()
                 .flat_map(|prefix| {
@@ -322,6 +358,16 @@ impl<M: StudyModel> Study<M> {
                 model.check_schedule(&params, schedule)?;
                 inputs += &format!(" snapshots: {schedule:?}");
             }
+            if self.design.is_some() {
+                // A design may draw the same values twice (levels, Saltelli's A and AB_i):
+                // the k-th repeat is its own run.
+                let base = inputs.clone();
+                let mut k = 0;
+                while seen.contains_key(&inputs) {
+                    k += 1;
+                    inputs = format!("{base} design repeat: {k}");
+                }
+            }
             if let Some(q) = seen.insert(inputs.clone(), p) {
                 return Err(Error::input(format!(
                     "{}: grid points {q} and {p} are the same run (their values are equal after \
@@ -354,6 +400,63 @@ pub fn run_id(model: &str, inputs: &str, seed: u64) -> String {
         (h ^ b as u64).wrapping_mul(0x100000001b3)
     });
     format!("{hash:016x}")
+}
+
+/// The `[design]` table: method, samples and the parameters' domains; the points are drawn
+/// from the study seed.
+fn design<M: StudyModel>(model: &M, raw: RawDesign, seed: u64) -> Result<Design> {
+    let fail = |e: String| Error::input(format!("design.{e}"));
+    let mut axes: Vec<DesignAxis> = Vec::new();
+    for (key, domain) in &raw.parameters {
+        let spec = spec_of(model, "design.parameters", key)?;
+        if axes.iter().any(|a| a.spec.name == spec.name) {
+            return Err(fail(format!("parameters.{key}: {} is given twice", spec.name)));
+        }
+        axes.push(domain::parse(spec, domain).map_err(|e| fail(format!("parameters.{e}")))?);
+    }
+    if axes.is_empty() {
+        return Err(fail("parameters: name at least one parameter with its domain".into()));
+    }
+    let kind = DesignKind::parse(&raw.method, raw.levels).map_err(|e| fail(format!("method: {e}")))?;
+    let minimum = kind.minimum_samples();
+    let samples = usize::try_from(raw.samples)
+        .ok()
+        .filter(|n| (minimum..=MAX_RUNS).contains(n))
+        .ok_or_else(|| {
+            fail(format!(
+                "samples: {} is not allowed (need {minimum}..={MAX_RUNS} for {} with {} parameters)",
+                raw.samples,
+                raw.method,
+                axes.len()
+            ))
+        })?;
+    let bootstrap = match raw.bootstrap {
+        None => 1000,
+        Some(b) => usize::try_from(b).ok().filter(|b| *b <= 100_000).ok_or_else(|| {
+            fail(format!("bootstrap: {b} is not allowed (need 0..=100000)"))
+        })?,
+    };
+    let unit = kind
+        .unit_points(samples, axes.len(), seed)
+        .map_err(|e| fail(format!("method: {e}")))?;
+    if unit.len() > MAX_RUNS {
+        return Err(fail(format!(
+            "samples: {samples} gives {} runs per replicate (limit {MAX_RUNS})",
+            unit.len()
+        )));
+    }
+    let points = unit
+        .iter()
+        .map(|u| axes.iter().zip(u).map(|(a, x)| a.value(*x)).collect())
+        .collect();
+    Ok(Design {
+        kind,
+        samples,
+        bootstrap,
+        axes,
+        unit,
+        points,
+    })
 }
 
 /// The `[snapshots]` table: `every` (steps ≥ 1), `times` (quantities), `formats` (xyz, dump,

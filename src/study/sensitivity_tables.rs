@@ -1,0 +1,136 @@
+//! What a design study adds to its tables once its runs are in: `sensitivity.parquet` (Sobol'
+//! indices with bootstrap intervals, or Morris μ, μ*, σ, per metric and parameter, with the
+//! share of the metric's variance that is replicate noise) and `distribution.parquet` (mean,
+//! std and quantiles of every metric over the design's runs: the propagated uncertainty when
+//! the design samples uncertain inputs).
+//!
+//! The estimators use the replicate mean of each point; a point without a value (its runs
+//! failed or did not reach the metric) leaves the indices of that metric null and says so in
+//! `note`.
+
+use super::design::sensitivity::{morris_effects, replicate_variance, sobol_indices};
+use super::design_spec::{Design, DesignKind};
+use super::records::RunRecord;
+use crate::numerics::stats::describe;
+use crate::output::table::{ColumnData as C, Table};
+
+/// Confidence level of the Sobol' intervals.
+const CONFIDENCE: f64 = 0.95;
+
+/// The values of `metric` per point (replicates in seed order; NaN where a run has none).
+fn by_point(records: &[RunRecord], metric: &str, points: usize) -> Vec<Vec<f64>> {
+    let mut y = vec![Vec::new(); points];
+    for r in records {
+        let v = r.result.metric(metric).filter(|_| r.result.status.is_ok());
+        y[r.run.point].push(v.unwrap_or(f64::NAN));
+    }
+    y
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+/// One row per (metric, parameter): the design's sensitivity measures. None for designs that
+/// are not for sensitivity (lhs, sobol, halton, random).
+pub fn sensitivity_table(
+    design: &Design,
+    metrics: &[String],
+    records: &[RunRecord],
+    seed: u64,
+) -> Option<Table> {
+    let dims = design.axes.len();
+    let names = ["first", "first_low", "first_high", "total", "total_low", "total_high"];
+    let names = match design.kind {
+        DesignKind::Saltelli => names.to_vec(),
+        DesignKind::Morris { .. } => vec!["mu", "mu_star", "sigma", "mu_star_ci95"],
+        DesignKind::Sample(_) => return None,
+    };
+    let mut rows: Vec<(String, String, Vec<Option<f64>>, Option<f64>, Option<String>)> = Vec::new();
+    for metric in metrics {
+        let y = by_point(records, metric, design.points.len());
+        let noise = Some(replicate_variance(&y).share).filter(|s| s.is_finite());
+        let means: Vec<f64> = y.iter().map(|g| mean(g)).collect();
+        let missing = means.iter().filter(|m| !m.is_finite()).count();
+        let values: Vec<Vec<f64>> = if missing > 0 {
+            vec![vec![f64::NAN; names.len()]; dims]
+        } else {
+            measures(design, &means, seed)
+        };
+        let note = (missing > 0).then(|| format!("{missing} points without a value"));
+        for (axis, v) in design.axes.iter().zip(values) {
+            let v = v.into_iter().map(|x| Some(x).filter(|x| x.is_finite())).collect();
+            rows.push((metric.clone(), axis.spec.name.to_string(), v, noise, note.clone()));
+        }
+    }
+    let mut t = Table::new()
+        .with("metric", C::Str(rows.iter().map(|r| r.0.clone()).collect()))
+        .with("parameter", C::Str(rows.iter().map(|r| r.1.clone()).collect()))
+        .with("method", C::Str(vec![design.kind.name(); rows.len()]));
+    for (k, name) in names.iter().enumerate() {
+        t.push_unit(name, C::OptF64(rows.iter().map(|r| r.2[k]).collect()), unit_of(design, name));
+    }
+    t.push_unit(
+        "replicate_noise_share",
+        C::OptF64(rows.iter().map(|r| r.3).collect()),
+        "1",
+    );
+    t.push("note", C::OptStr(rows.iter().map(|r| r.4.clone()).collect()));
+    Some(t)
+}
+
+/// Sobol' indices are fractions of the variance; Morris effects are in the metric's unit per
+/// unit-cube coordinate, stated as such.
+fn unit_of(design: &Design, _name: &str) -> &'static str {
+    match design.kind {
+        DesignKind::Morris { .. } => "metric unit per unit of the parameter's [0, 1] coordinate",
+        _ => "1",
+    }
+}
+
+/// The measures per parameter, in the order of the table's columns.
+fn measures(design: &Design, y: &[f64], seed: u64) -> Vec<Vec<f64>> {
+    let dims = design.axes.len();
+    match design.kind {
+        DesignKind::Saltelli => {
+            let s = sobol_indices(y, design.samples, dims, design.bootstrap, seed, CONFIDENCE);
+            (0..dims)
+                .map(|i| {
+                    let (f, t) = (s.first_ci[i], s.total_ci[i]);
+                    vec![s.first[i], f[0], f[1], s.total[i], t[0], t[1]]
+                })
+                .collect()
+        }
+        DesignKind::Morris { .. } => morris_effects(&design.unit, y, dims)
+            .into_iter()
+            .map(|e| vec![e.mu, e.mu_star, e.sigma, e.mu_star_ci])
+            .collect(),
+        DesignKind::Sample(_) => Vec::new(),
+    }
+}
+
+/// One row per metric: how it is distributed over all successful runs of the design (with
+/// uncertain inputs: the propagated uncertainty).
+pub fn distribution_table(metrics: &[String], records: &[RunRecord]) -> Table {
+    let d: Vec<_> = metrics
+        .iter()
+        .map(|m| {
+            let v: Vec<f64> = records
+                .iter()
+                .filter(|r| r.result.status.is_ok())
+                .filter_map(|r| r.result.metric(m))
+                .collect();
+            describe(&v)
+        })
+        .collect();
+    let opt = |x: f64| Some(x).filter(|x| x.is_finite());
+    let mut t = Table::new()
+        .with("metric", C::Str(metrics.to_vec()))
+        .with("count", C::I64(d.iter().map(|d| d.n as i64).collect()))
+        .with("mean", C::OptF64(d.iter().map(|d| opt(d.mean)).collect()))
+        .with("std", C::OptF64(d.iter().map(|d| opt(d.std)).collect()));
+    for (k, p) in ["q05", "q25", "q50", "q75", "q95"].iter().enumerate() {
+        t.push(p, C::OptF64(d.iter().map(|d| opt(d.quantiles[k])).collect()));
+    }
+    t
+}
