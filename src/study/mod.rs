@@ -3,6 +3,7 @@
 //! the runner expands the grid, runs (point, replicate) pairs in parallel, saves each run as it
 //! finishes, aggregates tables, optimizes free parameters and plots.
 
+pub mod design;
 pub mod model;
 pub mod optimize;
 pub mod param;
