@@ -1,8 +1,10 @@
 //! The study runner (spec studies.md): every model is an objective — parameters in, metrics
-//! out. A study names a model, base parameters, swept parameters, replicate seeds and metrics;
-//! the runner expands the grid, runs (point, replicate) pairs in parallel, saves each run as it
-//! finishes, aggregates tables, optimizes free parameters and plots.
+//! out. A study names a model, base parameters, swept parameters (a grid) or a design,
+//! replicate seeds and metrics; the runner expands its points, runs (point, replicate) pairs in
+//! parallel, saves each run as it finishes, aggregates tables (with sensitivity indices and
+//! metric distributions for designs), optimizes free parameters and plots.
 
+pub mod design;
 pub mod design_spec;
 pub mod domain;
 pub mod model;
