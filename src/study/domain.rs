@@ -89,11 +89,16 @@ pub fn parse(spec: &'static ParamSpec, raw: &toml::Value) -> Result<DesignAxis> 
             match kind.as_str() {
                 "range" | "log" => {
                     let (lo, hi) = (number(&pair[0])?, number(&pair[1])?);
+                    let shown = |x: f64| spec.user_text(&Value::Number(x));
                     if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
-                        return Err(fail(format!("need low < high (got {lo}, {hi} in SI)")));
+                        return Err(fail(format!(
+                            "need low < high (got {}, {})",
+                            shown(lo),
+                            shown(hi)
+                        )));
                     }
                     if kind == "log" && lo <= 0.0 {
-                        return Err(fail(format!("a log range needs low > 0 (got {lo} in SI)")));
+                        return Err(fail(format!("a log range needs low > 0 (got {})", shown(lo))));
                     }
                     if kind == "log" {
                         Domain::Log(lo, hi)
