@@ -11,6 +11,7 @@ use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
 use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
+use crate::output::table::read_parquet;
 use crate::study::model::{ParamSpec, StudyModel, Value};
 use crate::study::optimize::optimum_json;
 use crate::study::records;
@@ -174,8 +175,27 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
             report.unsuccessful,
             out.display()
         );
+        if study.design.is_some() {
+            print_design_tables(&out)?;
+        }
         Ok(0)
     })
+}
+
+/// The sensitivity measures and metric distributions a design study wrote, as text.
+fn print_design_tables(out: &Path) -> Result<()> {
+    let path = out.join("sensitivity.parquet");
+    if path.exists() {
+        let t = read_parquet(&path)?;
+        for line in crate::study::sensitivity_tables::sensitivity_lines(&t) {
+            println!("{line}");
+        }
+    }
+    let t = read_parquet(&out.join("distribution.parquet"))?;
+    for line in crate::study::sensitivity_tables::distribution_lines(&t) {
+        println!("{line}");
+    }
+    Ok(())
 }
 
 /// Reasons with their counts, most frequent first ("3 × code …; 1 × input …").

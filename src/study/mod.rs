@@ -11,6 +11,7 @@ pub mod model;
 pub mod optimize;
 pub mod param;
 pub mod plot;
+pub mod plot_design;
 pub mod records;
 pub mod runner;
 pub mod sensitivity_tables;
