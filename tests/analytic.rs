@@ -78,10 +78,7 @@ fn sweep_over_branin_reports_the_function() {
         .flatten()
         .cloned()
         .fold(f64::INFINITY, f64::min);
-    assert!(
-        lowest >= BRANIN_MIN && lowest < BRANIN_MIN + 0.1,
-        "{lowest}"
-    );
+    assert!((BRANIN_MIN..BRANIN_MIN + 0.1).contains(&lowest), "{lowest}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

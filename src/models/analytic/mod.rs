@@ -7,8 +7,8 @@
 //! - `ishigami` (Ishigami & Homma 1990): f = sin x1 + a sin² x2 + b x3⁴ sin x1 with a = 7,
 //!   b = 0.1, on x ∈ [−π, π]³. Its variance and Sobol' indices are known in closed form
 //!   ([`ishigami_sobol`]).
-//! - `branin` (Branin–Hoo, as in Dixon & Szegő 1978): f = a (x2 − b x1² + c x1 − r)²
-//!   + s (1 − t) cos x1 + s with a = 1, b = 5.1/(4π²), c = 5/π, r = 6, s = 10, t = 1/(8π), on
+//! - `branin` (Branin–Hoo, as in Dixon & Szegő 1978): f = a (x2 − b x1² + c x1 − r)² +
+//!   s (1 − t) cos x1 + s with a = 1, b = 5.1/(4π²), c = 5/π, r = 6, s = 10, t = 1/(8π), on
 //!   x1 ∈ [−5, 10], x2 ∈ [0, 15]. Global minimum s·t = 5/(4π) ≈ 0.397887 at (−π, 12.275),
 //!   (π, 2.275) and (3π, 2.475).
 //! - `hartmann6` (Dixon & Szegő 1978): f = −Σᵢ αᵢ exp(−Σⱼ Aᵢⱼ (xⱼ − Pᵢⱼ)²) on [0, 1]⁶ with the
@@ -405,7 +405,7 @@ mod tests {
             }
         }
         assert!(
-            lowest >= BRANIN_MIN && lowest < BRANIN_MIN + 0.01,
+            (BRANIN_MIN..BRANIN_MIN + 0.01).contains(&lowest),
             "{lowest}"
         );
     }
@@ -497,25 +497,25 @@ mod tests {
             || -> [f64; 3] { std::array::from_fn(|_| PI * (2.0 * rng.random::<f64>() - 1.0)) };
         let f = |x: &[f64; 3]| ishigami(x[0], x[1], x[2]);
         let (mut sum, mut sum2) = (0.0, 0.0);
-        let mut first = [[0.0; 4]; 3]; // Σ y y', Σ y + y', Σ (y² + y'²), Σ (y − y_B^i)²
+        // per input i: Σ y y', Σ (y + y'), Σ (y² + y'²) of the pick-freeze pair, and
+        // Σ (y − y_i)² of the total-effect pair
+        let mut sums = [[0.0; 4]; 3];
         for _ in 0..n {
             let a = draw();
             let b = draw();
             let ya = f(&a);
             sum += ya;
             sum2 += ya * ya;
-            for i in 0..3 {
+            for (i, s) in sums.iter_mut().enumerate() {
                 // c: x_i from a, the rest from b (pick-freeze on x_i)
-                let mut c = b;
-                c[i] = a[i];
+                let c: [f64; 3] = std::array::from_fn(|j| if j == i { a[j] } else { b[j] });
                 let yc = f(&c);
-                first[i][0] += ya * yc;
-                first[i][1] += ya + yc;
-                first[i][2] += ya * ya + yc * yc;
+                s[0] += ya * yc;
+                s[1] += ya + yc;
+                s[2] += ya * ya + yc * yc;
                 // d: a with x_i from b (for the total index)
-                let mut d = a;
-                d[i] = b[i];
-                first[i][3] += (ya - f(&d)).powi(2);
+                let d: [f64; 3] = std::array::from_fn(|j| if j == i { b[j] } else { a[j] });
+                s[3] += (ya - f(&d)).powi(2);
             }
         }
         let nf = n as f64;
@@ -524,22 +524,16 @@ mod tests {
         let exact = ishigami_sobol();
         assert!((mean - exact.mean).abs() < 0.05, "{mean}");
         assert!((variance / exact.variance - 1.0).abs() < 0.02, "{variance}");
-        for i in 0..3 {
-            let [yy, ysum, ysq, dd] = first[i];
+        for (i, [yy, ysum, ysq, dd]) in sums.into_iter().enumerate() {
             let m = ysum / (2.0 * nf);
             let s = (yy / nf - m * m) / (ysq / (2.0 * nf) - m * m);
             let st = dd / (2.0 * nf) / variance;
+            let (s_exact, st_exact) = (exact.first[i], exact.total[i]);
+            assert!((s - s_exact).abs() < 0.01, "S{}: {s} vs {s_exact}", i + 1);
             assert!(
-                (s - exact.first[i]).abs() < 0.01,
-                "S{}: {s} vs {}",
-                i + 1,
-                exact.first[i]
-            );
-            assert!(
-                (st - exact.total[i]).abs() < 0.01,
-                "ST{}: {st} vs {}",
-                i + 1,
-                exact.total[i]
+                (st - st_exact).abs() < 0.01,
+                "ST{}: {st} vs {st_exact}",
+                i + 1
             );
         }
     }
