@@ -7,6 +7,7 @@ use super::{command_line, threads};
 use super::{progress, EXIT_INCOMPLETE};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
+use crate::models::analytic::study::AnalyticModel;
 use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
@@ -115,6 +116,10 @@ macro_rules! with_model {
                 let $m = &BlastModel;
                 $body
             }
+            "analytic" => {
+                let $m = &AnalyticModel;
+                $body
+            }
             other => Err(Error::input(format!(
                 "{}: model: '{other}' is not available (available: {})",
                 $origin,
@@ -125,7 +130,7 @@ macro_rules! with_model {
 }
 
 /// The models a study file may name.
-const MODELS: &[&str] = &["align", "bed", "damper", "blast"];
+const MODELS: &[&str] = &["align", "bed", "damper", "blast", "analytic"];
 
 /// `magopt sweep`.
 pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
