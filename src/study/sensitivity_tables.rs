@@ -31,6 +31,16 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
 }
 
+/// One (metric, parameter) row of the sensitivity table.
+struct Row {
+    metric: String,
+    parameter: String,
+    /// The measures, in the order of the table's columns (None: not available).
+    values: Vec<Option<f64>>,
+    noise: Option<f64>,
+    note: Option<String>,
+}
+
 /// One row per (metric, parameter): the design's sensitivity measures. None for designs that
 /// are not for sensitivity (lhs, sobol, halton, random).
 pub fn sensitivity_table(
@@ -53,13 +63,7 @@ pub fn sensitivity_table(
         DesignKind::Morris { .. } => vec!["mu", "mu_star", "sigma", "mu_star_ci95"],
         DesignKind::Sample(_) => return None,
     };
-    let mut rows: Vec<(
-        String,
-        String,
-        Vec<Option<f64>>,
-        Option<f64>,
-        Option<String>,
-    )> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for metric in metrics {
         let y = by_point(records, metric, design.points.len());
         let noise = Some(replicate_variance(&y).share).filter(|s| s.is_finite());
@@ -76,37 +80,40 @@ pub fn sensitivity_table(
                 .into_iter()
                 .map(|x| Some(x).filter(|x| x.is_finite()))
                 .collect();
-            rows.push((
-                metric.clone(),
-                axis.spec.name.to_string(),
-                v,
+            rows.push(Row {
+                metric: metric.clone(),
+                parameter: axis.spec.name.to_string(),
+                values: v,
                 noise,
-                note.clone(),
-            ));
+                note: note.clone(),
+            });
         }
     }
     let mut t = Table::new()
-        .with("metric", C::Str(rows.iter().map(|r| r.0.clone()).collect()))
+        .with(
+            "metric",
+            C::Str(rows.iter().map(|r| r.metric.clone()).collect()),
+        )
         .with(
             "parameter",
-            C::Str(rows.iter().map(|r| r.1.clone()).collect()),
+            C::Str(rows.iter().map(|r| r.parameter.clone()).collect()),
         )
         .with("method", C::Str(vec![design.kind.name(); rows.len()]));
     for (k, name) in names.iter().enumerate() {
         t.push_unit(
             name,
-            C::OptF64(rows.iter().map(|r| r.2[k]).collect()),
+            C::OptF64(rows.iter().map(|r| r.values[k]).collect()),
             unit_of(design, name),
         );
     }
     t.push_unit(
         "replicate_noise_share",
-        C::OptF64(rows.iter().map(|r| r.3).collect()),
+        C::OptF64(rows.iter().map(|r| r.noise).collect()),
         "1",
     );
     t.push(
         "note",
-        C::OptStr(rows.iter().map(|r| r.4.clone()).collect()),
+        C::OptStr(rows.iter().map(|r| r.note.clone()).collect()),
     );
     Some(t)
 }
