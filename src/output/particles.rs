@@ -222,6 +222,19 @@ impl ParticleFrame {
     }
 }
 
+/// Item `index` of a file's frames (negative: counted from the end, −1 the last).
+fn pick_frame<T>(frames: &[T], index: isize) -> Result<&T> {
+    let k = if index < 0 {
+        frames.len() as isize + index
+    } else {
+        index
+    };
+    usize::try_from(k)
+        .ok()
+        .and_then(|k| frames.get(k))
+        .ok_or_else(|| Error::input(format!("no frame {index} in {} frames", frames.len())))
+}
+
 /// Parses a float written by the text writers.
 fn number(word: &str) -> Result<f64> {
     word.parse()

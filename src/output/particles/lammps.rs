@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::{number, Cell, ParticleFrame, Property};
+use super::{number, pick_frame, Cell, ParticleFrame, Property};
 use crate::{Error, Result};
 
 /// One frame as a LAMMPS dump, `step` being the TIMESTEP value.
@@ -126,17 +126,7 @@ pub fn lammps_frames(text: &str) -> Vec<&str> {
 /// # Errors
 /// [`Error::Input`] if there is no such frame or it does not parse.
 pub fn read_lammps_dump_frame(text: &str, index: isize) -> Result<ParticleFrame> {
-    let frames = lammps_frames(text);
-    let k = if index < 0 {
-        frames.len() as isize + index
-    } else {
-        index
-    };
-    let frame = usize::try_from(k)
-        .ok()
-        .and_then(|k| frames.get(k))
-        .ok_or_else(|| Error::input(format!("no frame {index} in {} frames", frames.len())))?;
-    read_lammps_dump(frame)
+    read_lammps_dump(pick_frame(&lammps_frames(text), index)?)
 }
 
 /// The cell from the BOX BOUNDS line and its three `lo hi` lines.

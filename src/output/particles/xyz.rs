@@ -8,7 +8,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::{fill_numbers, number, Cell, ParticleFrame, Property};
+use super::{fill_numbers, number, pick_frame, Cell, ParticleFrame, Property};
 use crate::output::atomic::write_atomic;
 use crate::{Error, Result};
 
@@ -96,17 +96,8 @@ fn row(frame: &ParticleFrame, i: usize) -> String {
 /// numbers, 1-based; negative `index` counts from the end, −1 the last frame).
 pub fn read_xyz(text: &str, index: isize) -> Result<ParticleFrame> {
     let lines: Vec<&str> = text.lines().collect();
-    let starts = frame_starts(&lines)?;
-    let k = if index < 0 {
-        starts.len() as isize + index
-    } else {
-        index
-    };
-    let start = usize::try_from(k)
-        .ok()
-        .and_then(|k| starts.get(k))
-        .ok_or_else(|| Error::input(format!("no frame {index} in {} frames", starts.len())))?;
-    let n = count(lines[*start])?;
+    let start = *pick_frame(&frame_starts(&lines)?, index)?;
+    let n = count(lines[start])?;
     let rows = lines
         .get(start + 2..start + 2 + n)
         .ok_or_else(|| Error::input("extended XYZ frame is cut short"))?;
