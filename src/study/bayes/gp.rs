@@ -131,7 +131,7 @@ impl Gp {
         }
         let p = d + 2;
         let mut starts = vec![vec![0.0; p]];
-        if let Ok(points) = unit_points(Method::Sobol, FIT_STARTS - 1, p, seed ^ 0x6770_6669_74) {
+        if let Ok(points) = unit_points(Method::Sobol, FIT_STARTS - 1, p, seed ^ 0x0067_7066_6974) {
             starts.extend(
                 points
                     .into_iter()
