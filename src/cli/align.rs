@@ -15,7 +15,7 @@ use crate::output::{atomic, plot};
 use crate::study::model::StudyModel;
 use crate::study::optimize::{optimize, optimum_json};
 use crate::study::records::{self, RunRecord};
-use crate::study::spec::{OptimizeSpec, Study};
+use crate::study::spec::{OptimizeMethod, OptimizeSpec, Study};
 use crate::units::to_unit;
 use crate::{Error, Result};
 
@@ -152,6 +152,7 @@ pub fn run_optimize(db: &MaterialDb, matches: &ArgMatches, args: &OptimizeArgs) 
         scan_points: count("scan-points", &args.scan_points)?.max(3),
         iterations: count("brent-iterations", &args.brent_iterations)? as u64,
         band: args.band,
+        method: OptimizeMethod::Brent,
     };
     let command = command_line();
     let study = Study::one_point(

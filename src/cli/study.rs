@@ -12,12 +12,12 @@ use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
 use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
-use crate::output::table::read_parquet;
+use crate::output::table::{read_parquet, write_parquet};
 use crate::study::model::{ParamSpec, StudyModel, Value};
-use crate::study::optimize::optimum_json;
+use crate::study::optimize::{history_table, optimum_json};
 use crate::study::records;
 use crate::study::runner::{self, Shard, SweepOptions};
-use crate::study::spec::{model_name, Study};
+use crate::study::spec::{model_name, OptimizeMethod, Study};
 use crate::{Error, Result};
 
 /// `magopt sweep` options.
@@ -232,12 +232,19 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("results").join(format!("{}-optimize", study.name)));
-        let evaluations = (spec.scan_points as u64 + spec.iterations) * study.replicates as u64;
-        let bar = progress::runs(evaluations, true);
+        // a Bayesian optimization evaluates at most its budget of points
+        let points = match &spec.method {
+            OptimizeMethod::Bayes(b) => b.budget as u64,
+            _ => spec.scan_points as u64 + spec.iterations,
+        };
+        let bar = progress::runs(points * study.replicates as u64, true);
         let result = crate::study::optimize::optimize(m, &study, Some(&out), &|| bar.inc(1));
         bar.finish_and_clear();
         let result = result?;
         records::write_optimize_results(m, &study, &out, &result.records, &command_line())?;
+        if let Some(history) = history_table(&study, &result) {
+            write_parquet(&out.join("history.parquet"), &history)?;
+        }
         let summary = optimum_json(m, &study, &result);
         atomic::write_json_atomic(&out.join("optimum.json"), &summary)?;
         if args.json {
@@ -287,6 +294,29 @@ fn print_optimum<M: StudyModel>(
             display(s, o.band.0),
             display(s, o.band.1),
             s.label()
+        );
+    }
+    if let Some(b) = &result.bayes {
+        println!(
+            "posterior mean there (Bayesian optimization): 95 % credible interval {:.6}–{:.6}",
+            b.interval.0, b.interval.1
+        );
+        let region: Vec<String> = spec
+            .free
+            .iter()
+            .zip(&b.region)
+            .map(|((s, ..), &(lo, hi))| {
+                format!("{} {:.4}–{:.4}", s.label(), display(s, lo), display(s, hi))
+            })
+            .collect();
+        println!(
+            "posterior mean within {} % of the optimum: {}",
+            spec.band * 100.0,
+            region.join(", ")
+        );
+        println!(
+            "{} rounds after the initial design; stopped by {}",
+            b.rounds, b.stop
         );
     }
     println!(

@@ -1,8 +1,12 @@
 //! `magopt optimize`: drive a study's metric to its optimum over the free parameter(s) of its
 //! `[optimize]` table, averaging replicates with common random numbers (the same seeds at every
-//! point). One parameter: log/linear scan + argmin's Brent (`crate::optimize`); several: argmin's
-//! Nelder–Mead in the unit cube of the (log-)scaled bounds. Every run is saved like a sweep's,
-//! so an interrupted optimization resumes by re-running the same command.
+//! point). `method = "brent"` (the default for one parameter): log/linear scan + argmin's Brent
+//! (`crate::optimize`); `"nelder-mead"` (the default for several): argmin's Nelder–Mead in the
+//! unit cube of the (log-)scaled bounds; `"bayes"`: Bayesian optimization
+//! ([`crate::study::bayes`]) in that cube, whose batches run every (point, replicate) pair in
+//! parallel. Every run is saved like a sweep's, so an interrupted optimization resumes by
+//! re-running the same command (the Bayesian loop is deterministic given the seed and the
+//! observations, so it re-proposes the same points and reloads their runs).
 
 use argmin::core::{CostFunction, Executor};
 use argmin::solver::neldermead::NelderMead;
@@ -10,11 +14,13 @@ use rayon::prelude::*;
 use std::cell::RefCell;
 use std::path::Path;
 
-use super::model::{ParamSpec, RunContext, StudyModel, Value};
+use super::bayes;
+use super::model::{ParamKind, ParamSpec, RunContext, StudyModel, Value};
 use super::records::RunRecord;
 use super::runner::load_or_run;
-use super::spec::{run_id, OptimizeSpec, RunSpec, Study};
+use super::spec::{run_id, BayesSpec, OptimizeMethod, OptimizeSpec, RunSpec, Study};
 use crate::optimize::{minimize_1d, Optimum, Point, Settings};
+use crate::output::table::{ColumnData, Table};
 use crate::{Error, Result};
 
 /// Score of a point whose replicates did not all give the metric (never a candidate).
@@ -33,6 +39,30 @@ pub struct StudyOptimum {
     pub evaluations: Vec<(Vec<f64>, Point)>,
     /// Every run, in evaluation order.
     pub records: Vec<RunRecord>,
+    /// `method = "bayes"`: the posterior optimum's interval, region and history.
+    pub bayes: Option<BayesResult>,
+}
+
+/// What a Bayesian optimization adds to its optimum (`value` and `best` of [`StudyOptimum`]
+/// are the posterior mean's minimizer and the posterior mean there).
+#[derive(Debug, Clone)]
+pub struct BayesResult {
+    /// Posterior standard deviation of the metric's latent mean at the optimum.
+    pub std: f64,
+    /// 95 % credible interval of that mean (metric units).
+    pub interval: (f64, f64),
+    /// Near-optimal region: per free parameter [lo, hi] (SI) of the evaluated and sampled
+    /// points whose posterior mean is within `band` of the optimum.
+    pub region: Vec<(f64, f64)>,
+    /// Rounds after the initial design.
+    pub rounds: usize,
+    /// Why it stopped: "budget" or "tolerance".
+    pub stop: &'static str,
+    /// The largest expected improvement of the last proposed batch (metric units).
+    pub last_ei: f64,
+    /// Per evaluation: its round, and the posterior optimum after that round (value, point
+    /// in SI).
+    pub history: Vec<(usize, f64, Vec<f64>)>,
 }
 
 /// Evaluates points of the free parameters: runs (or reloads) every replicate in parallel.
@@ -50,50 +80,85 @@ impl<M: StudyModel> Evaluator<'_, M> {
     /// Per-replicate metric values at x, signed so that smaller is better (the stored
     /// evaluations keep the plain values).
     fn evaluate(&self, x: &[f64]) -> Result<Vec<Option<f64>>> {
-        let mut params = self.study.base.clone();
-        let values: Vec<Value> = x.iter().map(|&v| Value::Number(v)).collect();
-        for ((spec, ..), v) in self.spec.free.iter().zip(&values) {
-            let at = format!("optimize.parameters.{}", spec.name);
-            self.model.set(&mut params, spec.name, v, &at)?;
-        }
-        self.model.check(&params)?;
-        let point = self.evaluations.borrow().len();
-        let inputs = self.model.inputs(&params);
+        Ok(self.evaluate_batch(&[x.to_vec()])?.remove(0))
+    }
+
+    /// Per-point, per-replicate metric values (signed so that smaller is better) of a batch:
+    /// every (point, replicate) run of the batch runs (or is reloaded) in parallel; a run that
+    /// two points of the batch share runs once. The parameters of every point are checked
+    /// before any run starts.
+    fn evaluate_batch(&self, xs: &[Vec<f64>]) -> Result<Vec<Vec<Option<f64>>>> {
         let (model, study, out, tick) = (self.model, self.study, self.out, self.tick);
-        let fresh: Vec<Result<RunRecord>> = (0..study.replicates)
-            .into_par_iter()
-            .map(|r| {
+        let first = self.evaluations.borrow().len();
+        let mut points = Vec::with_capacity(xs.len());
+        for x in xs {
+            let mut params = study.base.clone();
+            let values: Vec<Value> = x.iter().map(|&v| Value::Number(v)).collect();
+            for ((spec, ..), v) in self.spec.free.iter().zip(&values) {
+                let at = format!("optimize.parameters.{}", spec.name);
+                model.set(&mut params, spec.name, v, &at)?;
+            }
+            model.check(&params)?;
+            let inputs = model.inputs(&params);
+            points.push((params, values, inputs));
+        }
+        let mut runs: Vec<(RunSpec, usize)> = Vec::new();
+        let mut slot: Vec<usize> = Vec::with_capacity(xs.len() * study.replicates);
+        for (k, (_, values, inputs)) in points.iter().enumerate() {
+            let point = first + k;
+            for r in 0..study.replicates {
                 let seed = study.seed.wrapping_add(r as u64);
-                let run = RunSpec {
-                    index: point * study.replicates + r,
-                    id: run_id(model.name(), &inputs, seed),
-                    point,
-                    replicate: r,
-                    seed,
-                    values: values.clone(),
-                    inputs: inputs.clone(),
-                };
+                let id = run_id(model.name(), inputs, seed);
+                if let Some(j) = runs.iter().position(|(run, _)| run.id == id) {
+                    slot.push(j);
+                    continue;
+                }
+                slot.push(runs.len());
+                runs.push((
+                    RunSpec {
+                        index: point * study.replicates + r,
+                        id,
+                        point,
+                        replicate: r,
+                        seed,
+                        values: values.clone(),
+                        inputs: inputs.clone(),
+                    },
+                    k,
+                ));
+            }
+        }
+        let done: Vec<Result<RunRecord>> = runs
+            .par_iter()
+            .map(|(run, k)| {
                 // a saved run keeps its result; its position is this evaluation's
-                let record = load_or_run(model, &run, &params, out, true, &RunContext::QUIET)?;
+                let record = load_or_run(model, run, &points[*k].0, out, true, &RunContext::QUIET)?;
                 tick();
                 Ok(record)
             })
             .collect();
-        let fresh = fresh.into_iter().collect::<Result<Vec<_>>>()?;
-        let metric: Vec<Option<f64>> = fresh
-            .iter()
-            .map(|r| r.result.metric(&self.spec.metric))
-            .collect();
-        self.records.borrow_mut().extend(fresh);
-        self.evaluations.borrow_mut().push((
-            x.to_vec(),
-            Point {
-                x: x[0],
-                values: metric.clone(),
-            },
-        ));
+        let done = done.into_iter().collect::<Result<Vec<_>>>()?;
         let sign = if self.spec.maximize { -1.0 } else { 1.0 };
-        Ok(metric.iter().map(|v| v.map(|v| sign * v)).collect())
+        let mut signed = Vec::with_capacity(xs.len());
+        for (k, x) in xs.iter().enumerate() {
+            let fresh: Vec<&RunRecord> = (0..study.replicates)
+                .map(|r| &done[slot[k * study.replicates + r]])
+                .collect();
+            let metric: Vec<Option<f64>> = fresh
+                .iter()
+                .map(|r| r.result.metric(&self.spec.metric))
+                .collect();
+            self.records.borrow_mut().extend(fresh.into_iter().cloned());
+            self.evaluations.borrow_mut().push((
+                x.clone(),
+                Point {
+                    x: x[0],
+                    values: metric.clone(),
+                },
+            ));
+            signed.push(metric.iter().map(|v| v.map(|v| sign * v)).collect());
+        }
+        Ok(signed)
     }
 }
 
@@ -133,7 +198,10 @@ pub fn optimize<M: StudyModel>(
             vec![None; study.replicates]
         }
     };
-    let one_dimensional = if spec.free.len() == 1 {
+    if let OptimizeMethod::Bayes(b) = &spec.method {
+        return bayesian(&evaluator, b);
+    }
+    let one_dimensional = if spec.method == OptimizeMethod::Brent {
         let (_, lower, upper) = spec.free[0];
         let settings = Settings {
             lower,
@@ -185,7 +253,175 @@ pub fn optimize<M: StudyModel>(
         one_dimensional,
         evaluations,
         records: evaluator.records.into_inner(),
+        bayes: None,
     })
+}
+
+/// A point of the unit cube in SI: (log-)linear in each free parameter's bounds, counts
+/// rounded.
+fn from_unit(spec: &OptimizeSpec, z: &[f64]) -> Vec<f64> {
+    z.iter()
+        .zip(&spec.free)
+        .map(|(&t, (s, lo, hi))| {
+            let x = if spec.log {
+                (lo.ln() + t * (hi.ln() - lo.ln())).exp()
+            } else {
+                lo + t * (hi - lo)
+            };
+            if matches!(s.kind, ParamKind::Count) {
+                x.round()
+            } else {
+                x
+            }
+        })
+        .collect()
+}
+
+/// Errors of the Bayesian loop: its own (a message) or the evaluator's.
+enum Failure {
+    Loop(String),
+    Run(Error),
+}
+
+impl From<String> for Failure {
+    fn from(message: String) -> Self {
+        Failure::Loop(message)
+    }
+}
+
+/// `method = "bayes"`: the loop of [`bayes::minimize`] on the unit cube, each batch evaluated
+/// by [`Evaluator::evaluate_batch`]; a point's sample is its replicate mean with noise s²/r.
+fn bayesian<M: StudyModel>(evaluator: &Evaluator<'_, M>, b: &BayesSpec) -> Result<StudyOptimum> {
+    let (spec, study) = (evaluator.spec, evaluator.study);
+    let settings = bayes::Settings {
+        budget: b.budget,
+        batch: b.batch,
+        initial: b.initial,
+        tolerance: b.tolerance,
+        band: spec.band,
+        ..bayes::Settings::defaults(spec.free.len(), study.seed)
+    };
+    let outcome = bayes::minimize(&settings, |batch: &[Vec<f64>]| {
+        let xs: Vec<Vec<f64>> = batch.iter().map(|z| from_unit(spec, z)).collect();
+        let values = evaluator.evaluate_batch(&xs).map_err(Failure::Run)?;
+        Ok::<_, Failure>(
+            values
+                .iter()
+                .map(|v| {
+                    let p = Point {
+                        x: 0.0,
+                        values: v.clone(),
+                    };
+                    let r = v.len() as f64;
+                    bayes::Sample {
+                        mean: p.complete().then(|| p.mean()).filter(|m| m.is_finite()),
+                        noise: if p.complete() {
+                            p.std().powi(2) / r
+                        } else {
+                            0.0
+                        },
+                    }
+                })
+                .collect(),
+        )
+    })
+    .map_err(|f| match f {
+        Failure::Run(e) => e,
+        Failure::Loop(m) => Error::input(format!("optimize: {m}")),
+    })?;
+    let evaluations = evaluator.evaluations.take();
+    if !evaluations.iter().any(|(_, p)| p.complete()) {
+        return Err(Error::Output(format!(
+            "optimize: no evaluated point gave {} on every replicate",
+            spec.metric
+        )));
+    }
+    let sign = if spec.maximize { -1.0 } else { 1.0 };
+    let (lo, hi) = outcome.interval;
+    let interval = if spec.maximize { (-hi, -lo) } else { (lo, hi) };
+    let corners = |f: fn(&(f64, f64)) -> f64| -> Vec<f64> {
+        from_unit(spec, &outcome.region.iter().map(f).collect::<Vec<_>>())
+    };
+    let (low, high) = (corners(|r| r.0), corners(|r| r.1));
+    Ok(StudyOptimum {
+        best: from_unit(spec, &outcome.x),
+        value: sign * outcome.value,
+        one_dimensional: None,
+        evaluations,
+        records: evaluator.records.take(),
+        bayes: Some(BayesResult {
+            std: outcome.std,
+            interval,
+            region: low.into_iter().zip(high).collect(),
+            rounds: outcome.rounds,
+            stop: outcome.stop.name(),
+            last_ei: outcome.last_ei,
+            history: outcome
+                .evaluations
+                .iter()
+                .map(|e| (e.round, sign * e.best, from_unit(spec, &e.best_x)))
+                .collect(),
+        }),
+    })
+}
+
+/// `history.parquet` of a Bayesian optimization: per evaluation its index, round, point
+/// (display units), replicate mean and standard deviation of the metric, and the posterior
+/// optimum after its round (value and point). None for the other methods.
+pub fn history_table<M: StudyModel>(study: &Study<M>, result: &StudyOptimum) -> Option<Table> {
+    let spec = study.optimize.as_ref()?;
+    let bayes = result.bayes.as_ref()?;
+    let n = result.evaluations.len();
+    let mut t = Table::new().with("evaluation", ColumnData::I64((0..n as i64).collect()));
+    t.push(
+        "round",
+        ColumnData::I64(bayes.history.iter().map(|h| h.0 as i64).collect()),
+    );
+    let unit = super::records::metric_unit(&spec.metric);
+    let column = |k: usize, x: &dyn Fn(usize) -> f64| {
+        let (s, ..) = spec.free[k];
+        let values: Vec<Option<Value>> = (0..n).map(|i| Some(Value::Number(x(i)))).collect();
+        super::records::value_column(
+            s,
+            &values
+                .iter()
+                .map(|v| v.as_ref().map(|v| s.display(v)))
+                .collect::<Vec<_>>(),
+        )
+    };
+    for (k, (s, ..)) in spec.free.iter().enumerate() {
+        let (data, u) = column(k, &|i| result.evaluations[i].0[k]);
+        match u {
+            Some(u) => t.push_unit(&s.column(), data, &u),
+            None => t.push(&s.column(), data),
+        }
+    }
+    let mean: Vec<Option<f64>> = result
+        .evaluations
+        .iter()
+        .map(|(_, p)| p.complete().then(|| p.mean()))
+        .collect();
+    let std: Vec<Option<f64>> = result
+        .evaluations
+        .iter()
+        .map(|(_, p)| p.complete().then(|| p.std()))
+        .collect();
+    t.push_unit("mean", ColumnData::OptF64(mean), unit);
+    t.push_unit("std", ColumnData::OptF64(std), unit);
+    t.push_unit(
+        "best",
+        ColumnData::F64(bayes.history.iter().map(|h| h.1).collect()),
+        unit,
+    );
+    for (k, (s, ..)) in spec.free.iter().enumerate() {
+        let (data, u) = column(k, &|i| bayes.history[i].2[k]);
+        let name = format!("best_{}", s.column());
+        match u {
+            Some(u) => t.push_unit(&name, data, &u),
+            None => t.push(&name, data),
+        }
+    }
+    Some(t)
 }
 
 /// Nelder–Mead over the unit cube of the scaled bounds (points outside score the penalty).
@@ -239,7 +475,11 @@ fn nelder_mead(spec: &OptimizeSpec, evaluate: &dyn Fn(&[f64]) -> Vec<Option<f64>
 /// `optimum.json` and `--json` of `magopt optimize` and `magopt optimize-field` (one schema):
 /// the optimum per free parameter in display units (columns such as `field_kOe`), the mean
 /// metric there, for one free parameter the uncertainty and the near-optimal band, every
-/// evaluation, the seeds and the version.
+/// evaluation, the seeds and the version; the method, and for `method = "bayes"` (null
+/// otherwise) the 95 % credible interval of the mean metric at the optimum, the near-optimal
+/// region per parameter and `bayes` (settings, rounds, why it stopped, the last expected
+/// improvement, the posterior standard deviation at the optimum, and the history of the
+/// posterior optimum per evaluation).
 pub fn optimum_json<M: StudyModel>(
     model: &M,
     study: &Study<M>,
@@ -284,5 +524,26 @@ pub fn optimum_json<M: StudyModel>(
         })).collect::<Vec<_>>(),
         "seeds": (0..study.replicates).map(|r| study.seed.wrapping_add(r as u64)).collect::<Vec<_>>(),
         "magopt_version": super::records::VERSION,
+        "method": spec.method.name(),
+        "credible_interval": result.bayes.as_ref().map(|b| serde_json::json!([finite(b.interval.0), finite(b.interval.1)])),
+        "near_optimal_region": result.bayes.as_ref().map(|b| spec.free.iter().zip(&b.region).map(|((s, ..), &(lo, hi))| {
+            (s.column(), serde_json::json!([finite(shown(s, lo)), finite(shown(s, hi))]))
+        }).collect::<serde_json::Map<_, _>>()),
+        "bayes": match (&spec.method, result.bayes.as_ref()) {
+            (OptimizeMethod::Bayes(settings), Some(b)) => serde_json::json!({
+                "budget": settings.budget,
+                "batch": settings.batch,
+                "initial": settings.initial,
+                "tolerance": settings.tolerance,
+                "rounds": b.rounds,
+                "stop": b.stop,
+                "last_expected_improvement": finite(b.last_ei),
+                "posterior_std": finite(b.std),
+                "history": b.history.iter().enumerate().map(|(k, (round, value, x))| serde_json::json!({
+                    "evaluation": k, "round": round, "best": finite(*value), "optimum": named(x),
+                })).collect::<Vec<_>>(),
+            }),
+            _ => serde_json::Value::Null,
+        },
     })
 }

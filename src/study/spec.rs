@@ -70,6 +70,11 @@ struct RawOptimize {
     scan_points: Option<i64>,
     iterations: Option<i64>,
     band: Option<f64>,
+    method: Option<String>,
+    budget: Option<i64>,
+    batch: Option<i64>,
+    initial: Option<i64>,
+    tolerance: Option<f64>,
 }
 
 /// One swept parameter and its values (SI).
@@ -100,7 +105,47 @@ pub struct OptimizeSpec {
     pub iterations: u64,
     /// Near-optimal band fraction.
     pub band: f64,
+    /// The search method (`method = "brent" | "nelder-mead" | "bayes"`).
+    pub method: OptimizeMethod,
 }
+
+/// How `magopt optimize` searches.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OptimizeMethod {
+    /// Log/linear scan + Brent (one parameter; the default for one).
+    Brent,
+    /// Nelder–Mead in the unit cube of the scaled bounds (the default for several).
+    NelderMead,
+    /// Bayesian optimization ([`crate::study::bayes`]).
+    Bayes(BayesSpec),
+}
+
+impl OptimizeMethod {
+    /// The name in study files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            OptimizeMethod::Brent => "brent",
+            OptimizeMethod::NelderMead => "nelder-mead",
+            OptimizeMethod::Bayes(_) => "bayes",
+        }
+    }
+}
+
+/// The keys of `method = "bayes"`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BayesSpec {
+    /// Most evaluated points (initial design included).
+    pub budget: usize,
+    /// Points proposed (and run in parallel) per round.
+    pub batch: usize,
+    /// Points of the initial Latin-hypercube design.
+    pub initial: usize,
+    /// Stop when the best expected improvement is below this × the observed spread.
+    pub tolerance: f64,
+}
+
+/// Most evaluated points of a Bayesian optimization (the surrogate costs O(n³) per fit).
+pub const MAX_BAYES_BUDGET: usize = 500;
 
 /// A parsed, validated study for model `M`.
 #[derive(Debug, Clone)]
@@ -764,10 +809,15 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
             ))))
         }
     };
-    if log && free.iter().any(|(_, lo, _)| *lo <= 0.0) {
-        return Err(at(Error::input(
-            "scale: log needs positive bounds (use scale = \"linear\")",
-        )));
+    if log {
+        if let Some((spec, lo, hi)) = free.iter().find(|(_, lo, _)| *lo <= 0.0) {
+            return Err(at(Error::input(format!(
+                "parameters.{}: scale = \"log\" needs positive bounds (got {}, {}; use scale = \"linear\")",
+                spec.name,
+                spec.user_text(&Value::Number(*lo)),
+                spec.user_text(&Value::Number(*hi))
+            ))));
+        }
     }
     let band = raw.band.unwrap_or(0.02);
     if !(band > 0.0 && band < 1.0) {
@@ -775,6 +825,7 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
             "band: {band} is not allowed (need 0 < band < 1)"
         ))));
     }
+    let method = optimize_method(&raw, free.len()).map_err(at)?;
     Ok(OptimizeSpec {
         metric: raw.metric,
         maximize,
@@ -785,5 +836,78 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
             .max(3),
         iterations: positive("iterations", raw.iterations.unwrap_or(8)).map_err(at)? as u64,
         band,
+        method,
     })
+}
+
+/// `method` and its keys: brent (one parameter) or nelder-mead (several) by default; bayes
+/// with `budget`, `batch`, `initial`, `tolerance` (defaults from
+/// [`crate::study::bayes::Settings::defaults`]). Errors name the key (without `optimize.`).
+fn optimize_method(raw: &RawOptimize, dims: usize) -> Result<OptimizeMethod> {
+    let default = if dims == 1 { "brent" } else { "nelder-mead" };
+    let name = raw.method.as_deref().unwrap_or(default);
+    let bayes_keys = [
+        ("budget", raw.budget.is_some()),
+        ("batch", raw.batch.is_some()),
+        ("initial", raw.initial.is_some()),
+        ("tolerance", raw.tolerance.is_some()),
+    ];
+    if name != "bayes" {
+        if let Some((key, _)) = bayes_keys.iter().find(|(_, given)| *given) {
+            return Err(Error::input(format!(
+                "{key}: only used with method = \"bayes\" (method is \"{name}\")"
+            )));
+        }
+    }
+    match name {
+        "brent" if dims == 1 => Ok(OptimizeMethod::Brent),
+        "brent" => Err(Error::input(format!(
+            "method: \"brent\" optimizes one parameter, not {dims} (use \"nelder-mead\" or \"bayes\")"
+        ))),
+        "nelder-mead" => Ok(OptimizeMethod::NelderMead),
+        "bayes" => {
+            for (key, given) in [
+                ("scan_points", raw.scan_points.is_some()),
+                ("iterations", raw.iterations.is_some()),
+            ] {
+                if given {
+                    return Err(Error::input(format!(
+                        "{key}: not used by method = \"bayes\" (set budget, batch, initial)"
+                    )));
+                }
+            }
+            let defaults = crate::study::bayes::Settings::defaults(dims, 0);
+            let count = |key: &str, value: Option<i64>, default: usize, least: usize| match value {
+                None => Ok(default),
+                Some(n) => usize::try_from(n)
+                    .ok()
+                    .filter(|n| (least..=MAX_BAYES_BUDGET).contains(n))
+                    .ok_or_else(|| {
+                        Error::input(format!(
+                            "{key}: {n} is not allowed (need {least}..={MAX_BAYES_BUDGET})"
+                        ))
+                    }),
+            };
+            let initial = count("initial", raw.initial, defaults.initial, 2)?;
+            let budget = count("budget", raw.budget, defaults.budget.max(initial), 1)?;
+            let batch = count("batch", raw.batch, defaults.batch.min(budget), 0)?;
+            let settings = crate::study::bayes::Settings {
+                budget,
+                batch,
+                initial,
+                tolerance: raw.tolerance.unwrap_or(defaults.tolerance),
+                ..defaults
+            };
+            settings.check().map_err(Error::input)?;
+            Ok(OptimizeMethod::Bayes(BayesSpec {
+                budget,
+                batch,
+                initial,
+                tolerance: settings.tolerance,
+            }))
+        }
+        other => Err(Error::input(format!(
+            "method: '{other}' is not brent, nelder-mead or bayes"
+        ))),
+    }
 }
