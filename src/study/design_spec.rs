@@ -45,7 +45,9 @@ impl DesignKind {
                 let levels = usize::try_from(p)
                     .ok()
                     .filter(|p| (2..=1000).contains(p) && p % 2 == 0)
-                    .ok_or_else(|| format!("levels = {p} is not allowed (need an even 2..=1000)"))?;
+                    .ok_or_else(|| {
+                        format!("levels = {p} is not allowed (need an even 2..=1000)")
+                    })?;
                 Self::Morris { levels }
             }
             other => Self::Sample(other.parse::<Method>().map_err(|_| {
@@ -71,7 +73,12 @@ impl DesignKind {
     }
 
     /// The design's points in the unit cube.
-    pub fn unit_points(self, samples: usize, dims: usize, seed: u64) -> Result<Vec<Vec<f64>>, String> {
+    pub fn unit_points(
+        self,
+        samples: usize,
+        dims: usize,
+        seed: u64,
+    ) -> Result<Vec<Vec<f64>>, String> {
         match self {
             Self::Sample(method) => unit_points(method, samples, dims, seed),
             Self::Saltelli => Ok(saltelli_points(samples, dims, seed)),

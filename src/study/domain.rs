@@ -61,7 +61,10 @@ impl DesignAxis {
 
     /// Whether plots should use a log axis for it.
     pub fn is_log(&self) -> bool {
-        matches!(self.domain, Domain::Log(..) | Domain::Random(Distribution::LogNormal { .. }))
+        matches!(
+            self.domain,
+            Domain::Log(..) | Domain::Random(Distribution::LogNormal { .. })
+        )
     }
 }
 
@@ -98,7 +101,10 @@ pub fn parse(spec: &'static ParamSpec, raw: &toml::Value) -> Result<DesignAxis> 
                         )));
                     }
                     if kind == "log" && lo <= 0.0 {
-                        return Err(fail(format!("a log range needs low > 0 (got {})", shown(lo))));
+                        return Err(fail(format!(
+                            "a log range needs low > 0 (got {})",
+                            shown(lo)
+                        )));
                     }
                     if kind == "log" {
                         Domain::Log(lo, hi)
@@ -110,9 +116,10 @@ pub fn parse(spec: &'static ParamSpec, raw: &toml::Value) -> Result<DesignAxis> 
                     let mean = number(&pair[0])?;
                     let std = match pair[1].as_str().and_then(|s| s.trim().strip_suffix('%')) {
                         Some(pct) => {
-                            let p: f64 = pct.trim().parse().map_err(|_| {
-                                fail(format!("'{}' is not a percentage", pair[1]))
-                            })?;
+                            let p: f64 = pct
+                                .trim()
+                                .parse()
+                                .map_err(|_| fail(format!("'{}' is not a percentage", pair[1])))?;
                             p / 100.0 * mean.abs()
                         }
                         None => number(&pair[1])?,
@@ -121,9 +128,14 @@ pub fn parse(spec: &'static ParamSpec, raw: &toml::Value) -> Result<DesignAxis> 
                 }
                 "lognormal" => {
                     let median = number(&pair[0])?;
-                    let sigma = pair[1].as_float().or(pair[1].as_integer().map(|i| i as f64));
+                    let sigma = pair[1]
+                        .as_float()
+                        .or(pair[1].as_integer().map(|i| i as f64));
                     let sigma = sigma.ok_or_else(|| {
-                        fail(format!("lognormal σ (of ln x) must be a plain number, got {}", pair[1]))
+                        fail(format!(
+                            "lognormal σ (of ln x) must be a plain number, got {}",
+                            pair[1]
+                        ))
                     })?;
                     random(Distribution::LogNormal { median, sigma }, &fail)?
                 }

@@ -10,6 +10,7 @@ pub mod domain;
 pub mod model;
 pub mod optimize;
 pub mod param;
+pub mod pareto;
 pub mod plot;
 pub mod records;
 pub mod runner;

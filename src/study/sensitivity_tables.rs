@@ -40,13 +40,26 @@ pub fn sensitivity_table(
     seed: u64,
 ) -> Option<Table> {
     let dims = design.axes.len();
-    let names = ["first", "first_low", "first_high", "total", "total_low", "total_high"];
+    let names = [
+        "first",
+        "first_low",
+        "first_high",
+        "total",
+        "total_low",
+        "total_high",
+    ];
     let names = match design.kind {
         DesignKind::Saltelli => names.to_vec(),
         DesignKind::Morris { .. } => vec!["mu", "mu_star", "sigma", "mu_star_ci95"],
         DesignKind::Sample(_) => return None,
     };
-    let mut rows: Vec<(String, String, Vec<Option<f64>>, Option<f64>, Option<String>)> = Vec::new();
+    let mut rows: Vec<(
+        String,
+        String,
+        Vec<Option<f64>>,
+        Option<f64>,
+        Option<String>,
+    )> = Vec::new();
     for metric in metrics {
         let y = by_point(records, metric, design.points.len());
         let noise = Some(replicate_variance(&y).share).filter(|s| s.is_finite());
@@ -59,23 +72,42 @@ pub fn sensitivity_table(
         };
         let note = (missing > 0).then(|| format!("{missing} points without a value"));
         for (axis, v) in design.axes.iter().zip(values) {
-            let v = v.into_iter().map(|x| Some(x).filter(|x| x.is_finite())).collect();
-            rows.push((metric.clone(), axis.spec.name.to_string(), v, noise, note.clone()));
+            let v = v
+                .into_iter()
+                .map(|x| Some(x).filter(|x| x.is_finite()))
+                .collect();
+            rows.push((
+                metric.clone(),
+                axis.spec.name.to_string(),
+                v,
+                noise,
+                note.clone(),
+            ));
         }
     }
     let mut t = Table::new()
         .with("metric", C::Str(rows.iter().map(|r| r.0.clone()).collect()))
-        .with("parameter", C::Str(rows.iter().map(|r| r.1.clone()).collect()))
+        .with(
+            "parameter",
+            C::Str(rows.iter().map(|r| r.1.clone()).collect()),
+        )
         .with("method", C::Str(vec![design.kind.name(); rows.len()]));
     for (k, name) in names.iter().enumerate() {
-        t.push_unit(name, C::OptF64(rows.iter().map(|r| r.2[k]).collect()), unit_of(design, name));
+        t.push_unit(
+            name,
+            C::OptF64(rows.iter().map(|r| r.2[k]).collect()),
+            unit_of(design, name),
+        );
     }
     t.push_unit(
         "replicate_noise_share",
         C::OptF64(rows.iter().map(|r| r.3).collect()),
         "1",
     );
-    t.push("note", C::OptStr(rows.iter().map(|r| r.4.clone()).collect()));
+    t.push(
+        "note",
+        C::OptStr(rows.iter().map(|r| r.4.clone()).collect()),
+    );
     Some(t)
 }
 
@@ -130,7 +162,10 @@ pub fn distribution_table(metrics: &[String], records: &[RunRecord]) -> Table {
         .with("mean", C::OptF64(d.iter().map(|d| opt(d.mean)).collect()))
         .with("std", C::OptF64(d.iter().map(|d| opt(d.std)).collect()));
     for (k, p) in ["q05", "q25", "q50", "q75", "q95"].iter().enumerate() {
-        t.push(p, C::OptF64(d.iter().map(|d| opt(d.quantiles[k])).collect()));
+        t.push(
+            p,
+            C::OptF64(d.iter().map(|d| opt(d.quantiles[k])).collect()),
+        );
     }
     t
 }

@@ -410,14 +410,20 @@ fn design<M: StudyModel>(model: &M, raw: RawDesign, seed: u64) -> Result<Design>
     for (key, domain) in &raw.parameters {
         let spec = spec_of(model, "design.parameters", key)?;
         if axes.iter().any(|a| a.spec.name == spec.name) {
-            return Err(fail(format!("parameters.{key}: {} is given twice", spec.name)));
+            return Err(fail(format!(
+                "parameters.{key}: {} is given twice",
+                spec.name
+            )));
         }
         axes.push(domain::parse(spec, domain).map_err(|e| fail(format!("parameters.{e}")))?);
     }
     if axes.is_empty() {
-        return Err(fail("parameters: name at least one parameter with its domain".into()));
+        return Err(fail(
+            "parameters: name at least one parameter with its domain".into(),
+        ));
     }
-    let kind = DesignKind::parse(&raw.method, raw.levels).map_err(|e| fail(format!("method: {e}")))?;
+    let kind =
+        DesignKind::parse(&raw.method, raw.levels).map_err(|e| fail(format!("method: {e}")))?;
     let minimum = kind.minimum_samples();
     let samples = usize::try_from(raw.samples)
         .ok()
@@ -432,9 +438,10 @@ fn design<M: StudyModel>(model: &M, raw: RawDesign, seed: u64) -> Result<Design>
         })?;
     let bootstrap = match raw.bootstrap {
         None => 1000,
-        Some(b) => usize::try_from(b).ok().filter(|b| *b <= 100_000).ok_or_else(|| {
-            fail(format!("bootstrap: {b} is not allowed (need 0..=100000)"))
-        })?,
+        Some(b) => usize::try_from(b)
+            .ok()
+            .filter(|b| *b <= 100_000)
+            .ok_or_else(|| fail(format!("bootstrap: {b} is not allowed (need 0..=100000)")))?,
     };
     let unit = kind
         .unit_points(samples, axes.len(), seed)
