@@ -8,6 +8,8 @@ pub mod design;
 pub mod design_spec;
 pub mod domain;
 pub mod model;
+pub mod multi;
+pub mod objectives;
 pub mod optimize;
 pub mod param;
 pub mod pareto;
