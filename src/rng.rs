@@ -20,6 +20,8 @@ pub enum Purpose {
     Velocities = 4,
     /// Charges (e.g. the sign mix of a charged cloud).
     Charges = 5,
+    /// Additive noise on the objectives of a test function (the `analytic` model).
+    Noise = 6,
 }
 
 /// The stream for one purpose of one run.

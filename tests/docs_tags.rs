@@ -299,7 +299,13 @@ fn every_cited_equation_tag_has_a_heading_in_docs() {
 fn docs_index_exists_and_names_every_model_file() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let index = fs::read_to_string(root.join("docs/README.md")).expect("docs/README.md");
-    for file in ["align.md", "bed.md", "blast.md", "analysis.md"] {
+    for file in [
+        "align.md",
+        "bed.md",
+        "blast.md",
+        "analytic.md",
+        "analysis.md",
+    ] {
         assert!(index.contains(file), "docs/README.md does not name {file}");
         assert!(
             root.join("docs").join(file).is_file(),

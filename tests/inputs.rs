@@ -5,6 +5,7 @@
 
 use magopt::materials::MaterialDb;
 use magopt::models::align::study::AlignModel;
+use magopt::models::analytic::study::AnalyticModel;
 use magopt::models::bed::study::{load_species, BedModel};
 use magopt::models::blast::study::BlastModel;
 use magopt::study::model::StudyModel;
@@ -42,9 +43,10 @@ fn read(path: &Path) -> Result<(), String> {
                 "bed" => study(&BedModel::cycle(), &text, &name),
                 "damper" => study(&BedModel::damper(), &text, &name),
                 "blast" => study(&BlastModel, &text, &name),
+                "analytic" => study(&AnalyticModel, &text, &name),
                 other => Err(magopt::Error::input(format!(
                     "{name}: model: '{other}' is not available (available: align, bed, damper, \
-                 blast)"
+                 blast, analytic)"
                 ))),
             })
             .map(|_| ())
@@ -106,6 +108,7 @@ fn every_shipped_study_parses_and_checks() {
                 "bed" => study(&BedModel::cycle(), &text, &name),
                 "damper" => study(&BedModel::damper(), &text, &name),
                 "blast" => study(&BlastModel, &text, &name),
+                "analytic" => study(&AnalyticModel, &text, &name),
                 other => panic!("{name}: unknown model {other}"),
             };
             if let Err(e) = result {

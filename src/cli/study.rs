@@ -7,10 +7,12 @@ use super::{command_line, threads};
 use super::{progress, EXIT_INCOMPLETE};
 use crate::materials::MaterialDb;
 use crate::models::align::study::AlignModel;
+use crate::models::analytic::study::AnalyticModel;
 use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::output::atomic;
 use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
+use crate::output::table::read_parquet;
 use crate::study::model::{ParamSpec, StudyModel, Value};
 use crate::study::multi;
 use crate::study::objectives::Target;
@@ -116,6 +118,10 @@ macro_rules! with_model {
                 let $m = &BlastModel;
                 $body
             }
+            "analytic" => {
+                let $m = &AnalyticModel;
+                $body
+            }
             other => Err(Error::input(format!(
                 "{}: model: '{other}' is not available (available: {})",
                 $origin,
@@ -126,7 +132,7 @@ macro_rules! with_model {
 }
 
 /// The models a study file may name.
-const MODELS: &[&str] = &["align", "bed", "damper", "blast"];
+const MODELS: &[&str] = &["align", "bed", "damper", "blast", "analytic"];
 
 /// `magopt sweep`.
 pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
@@ -176,8 +182,27 @@ pub fn sweep(db: MaterialDb, args: &SweepArgs) -> Result<i32> {
             report.unsuccessful,
             out.display()
         );
+        if study.design.is_some() {
+            print_design_tables(&out)?;
+        }
         Ok(0)
     })
+}
+
+/// The sensitivity measures and metric distributions a design study wrote, as text.
+fn print_design_tables(out: &Path) -> Result<()> {
+    let path = out.join("sensitivity.parquet");
+    if path.exists() {
+        let t = read_parquet(&path)?;
+        for line in crate::study::sensitivity_tables::sensitivity_lines(&t) {
+            println!("{line}");
+        }
+    }
+    let t = read_parquet(&out.join("distribution.parquet"))?;
+    for line in crate::study::sensitivity_tables::distribution_lines(&t) {
+        println!("{line}");
+    }
+    Ok(())
 }
 
 /// Reasons with their counts, most frequent first ("3 × code …; 1 × input …").

@@ -14,6 +14,7 @@ pub mod optimize;
 pub mod param;
 pub mod pareto;
 pub mod plot;
+pub mod plot_design;
 pub mod records;
 pub mod runner;
 pub mod sensitivity_tables;

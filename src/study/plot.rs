@@ -57,6 +57,9 @@ struct Provenance {
     swept: Vec<SweptParam>,
     #[serde(default)]
     series_label: Option<BTreeMap<String, String>>,
+    /// The design's method, samples and points, for a design study.
+    #[serde(default)]
+    design: Option<serde_json::Value>,
 }
 
 /// The values of one swept parameter in the rows of a table.
@@ -109,6 +112,13 @@ pub fn plot_study(dir: &Path) -> Result<Vec<PathBuf>> {
     let out = dir.join("plots");
     std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
     let mut written = metric_figures(&study, &out)?;
+    if study.prov.design.is_some() {
+        written.extend(super::plot_design::design_figures(
+            dir,
+            &out,
+            &study.prov.metrics,
+        )?);
+    }
     let series_path = dir.join("series.parquet");
     // Series are optional: a study may have recorded only scalar metrics.
     if series_path.is_file() {
@@ -317,18 +327,33 @@ fn metric_figure(study: &Study, metric: &str, x: usize) -> Result<Figure> {
         unreachable!("only numeric parameters are chosen as x axes");
     };
     let others: Vec<usize> = (0..study.params.len()).filter(|&j| j != x).collect();
-    let series = line_groups(study, &others, xs)
+    // A design's points share no values of the other parameters: one cloud of points.
+    let groups = if study.prov.design.is_some() {
+        vec![(0..xs.len()).collect()]
+    } else {
+        line_groups(study, &others, xs)
+    };
+    let design = study.prov.design.is_some();
+    let series = groups
         .into_iter()
         .filter_map(|rows| {
             // NaN means (no run reached the metric) would only break the line: leave out.
             let rows: Vec<usize> = rows.into_iter().filter(|&r| mean[r].is_finite()).collect();
             let first = *rows.first()?;
             Some(Series {
-                label: params_label(study, &others, first),
+                label: if design {
+                    "design points (mean ± std over replicates)".into()
+                } else {
+                    params_label(study, &others, first)
+                },
                 x: rows.iter().map(|&r| xs[r]).collect(),
                 y: rows.iter().map(|&r| mean[r]).collect(),
                 y_err: Some(rows.iter().map(|&r| std[r]).collect()),
-                style: SeriesStyle::LinePoints,
+                style: if design {
+                    SeriesStyle::Points
+                } else {
+                    SeriesStyle::LinePoints
+                },
             })
         })
         .collect();

@@ -684,6 +684,9 @@ pub fn provenance<M: StudyModel>(model: &M, study: &Study<M>, command: &str) -> 
             "name": a.spec.name, "column": a.spec.column(), "label": a.spec.label(), "log": a.log,
         })).collect::<Vec<_>>(),
         "series_label": model.series_labels().iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+        "design": study.design.as_ref().map(|d| serde_json::json!({
+            "method": d.kind.name(), "samples": d.samples, "points": d.points.len(),
+        })),
     })
 }
 

@@ -169,3 +169,64 @@ pub fn distribution_table(metrics: &[String], records: &[RunRecord]) -> Table {
     }
     t
 }
+
+/// Text of a column at row `i` (numbers with 3 significant digits, "–" for null).
+fn cell(t: &Table, name: &str, i: usize) -> String {
+    match t.column(name) {
+        Some(C::Str(v)) => v[i].clone(),
+        Some(C::OptF64(v)) => v[i].map_or("–".into(), |x| format!("{x:.3}")),
+        Some(C::F64(v)) => format!("{:.4}", v[i]),
+        Some(C::I64(v)) => v[i].to_string(),
+        _ => "–".into(),
+    }
+}
+
+/// One line per (metric, parameter) of a `sensitivity.parquet` table.
+pub fn sensitivity_lines(t: &Table) -> Vec<String> {
+    let morris = t.column("mu_star").is_some();
+    (0..t.n_rows())
+        .map(|i| {
+            let c = |n: &str| cell(t, n, i);
+            let head = format!("{:>24} {:>16}", c("metric"), c("parameter"));
+            if morris {
+                format!(
+                    "{head}  μ* {} ± {}  μ {}  σ {}",
+                    c("mu_star"),
+                    c("mu_star_ci95"),
+                    c("mu"),
+                    c("sigma")
+                )
+            } else {
+                format!(
+                    "{head}  S1 {} [{}, {}]  ST {} [{}, {}]  replicate noise {}",
+                    c("first"),
+                    c("first_low"),
+                    c("first_high"),
+                    c("total"),
+                    c("total_low"),
+                    c("total_high"),
+                    c("replicate_noise_share")
+                )
+            }
+        })
+        .collect()
+}
+
+/// One line per metric of a `distribution.parquet` table.
+pub fn distribution_lines(t: &Table) -> Vec<String> {
+    (0..t.n_rows())
+        .map(|i| {
+            let c = |n: &str| cell(t, n, i);
+            format!(
+                "{:>24}  n {}  mean {}  std {}  5–50–95 % {} {} {}",
+                c("metric"),
+                c("count"),
+                c("mean"),
+                c("std"),
+                c("q05"),
+                c("q50"),
+                c("q95")
+            )
+        })
+        .collect()
+}
