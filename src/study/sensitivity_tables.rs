@@ -33,6 +33,7 @@ fn mean(v: &[f64]) -> f64 {
 
 /// One row per (metric, parameter): the design's sensitivity measures. None for designs that
 /// are not for sensitivity (lhs, sobol, halton, random).
+#[allow(clippy::type_complexity)] // one row: names and values of a measure
 pub fn sensitivity_table(
     design: &Design,
     metrics: &[String],

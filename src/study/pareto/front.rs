@@ -89,6 +89,7 @@ pub fn sort_with_missing(points: &[Option<Vec<f64>>]) -> Vec<Vec<usize>> {
 /// adds the normalized distance between its two neighbours, (f_{i+1} − f_{i−1}) / (f_max −
 /// f_min). An objective that is constant over the front adds nothing. Fronts of one or two
 /// members are all extremes (+∞).
+#[allow(clippy::needless_range_loop)] // k indexes the objectives of several points
 pub fn crowding_distance(points: &[Vec<f64>], front: &[usize]) -> Vec<f64> {
     let n = front.len();
     let mut distance = vec![0.0; n];
@@ -236,6 +237,7 @@ mod tests {
             .collect();
         let front: Vec<usize> = (0..30).collect();
         let d = crowding_distance(&points, &front);
+        #[allow(clippy::needless_range_loop)]
         for k in 0..3 {
             let lo = (0..30)
                 .min_by(|&a, &b| points[a][k].total_cmp(&points[b][k]))
