@@ -298,3 +298,45 @@ reference = [1.1, 1.1]
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Three objectives (ZDT1's f1 and f2 and the input x2 as a cost): the run completes and
+/// front.png holds the three pairwise projections side by side.
+#[test]
+fn three_objectives_plot_three_projections() {
+    let dir = temp_dir("three");
+    let path = dir.join("three.toml");
+    std::fs::write(
+        &path,
+        r#"name = "three"
+model = "analytic"
+metrics = ["f1", "f2"]
+[base]
+function = "zdt1"
+[objectives]
+minimize = ["f1", "f2", "x2"]
+parameters = { x1 = [0, 1], x2 = [0, 1], x3 = [0, 1] }
+scale = "linear"
+population = 8
+generations = 3
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = magopt(&[
+        "optimize",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("pareto.json")).unwrap()).unwrap();
+    assert_eq!(json["objectives"].as_array().unwrap().len(), 3);
+    assert!(json["hypervolume"].as_f64().unwrap() > 0.0);
+    let png = std::fs::read(out.join("front.png")).unwrap();
+    // PNG header: width and height, big-endian, at bytes 16..24
+    let width = u32::from_be_bytes(png[16..20].try_into().unwrap());
+    let height = u32::from_be_bytes(png[20..24].try_into().unwrap());
+    assert_eq!((width, height), (2100, 700));
+    let _ = std::fs::remove_dir_all(&dir);
+}
