@@ -14,6 +14,8 @@ use crate::output::atomic;
 use crate::output::guard::{read_text_limited, MAX_TEXT_INPUT};
 use crate::output::table::{read_parquet, write_parquet};
 use crate::study::model::{ParamSpec, StudyModel, Value};
+use crate::study::multi;
+use crate::study::objectives::Target;
 use crate::study::optimize::{history_table, optimum_json};
 use crate::study::records;
 use crate::study::runner::{self, Shard, SweepOptions};
@@ -224,10 +226,12 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
     let origin = args.study.display().to_string();
     with_model!(db, model.as_str(), origin, |m| {
         let study = Study::parse(m, &text, &origin)?;
-        let spec = study
-            .optimize
-            .clone()
-            .ok_or_else(|| Error::input(format!("{origin}: no [optimize] table")))?;
+        if study.objectives.is_some() {
+            return pareto(m, &study, args);
+        }
+        let spec = study.optimize.clone().ok_or_else(|| {
+            Error::input(format!("{origin}: no [optimize] or [objectives] table"))
+        })?;
         let out = args
             .out
             .clone()
@@ -254,6 +258,77 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
         }
         Ok(0)
     })
+}
+
+/// `magopt optimize` on a study with `[objectives]`: the Pareto front by NSGA-II.
+fn pareto<M: StudyModel>(m: &M, study: &Study<M>, args: &OptimizeArgs) -> Result<i32> {
+    let spec = multi::check(m, study)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(format!("{}-optimize", study.name)));
+    let bar = progress::runs((spec.points() * study.replicates) as u64, true);
+    let result = multi::optimize(m, study, &out, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let result = result?;
+    let summary = multi::write_results(m, study, &out, &result, &command_line())?;
+    if args.json {
+        println!("{summary}");
+        return Ok(0);
+    }
+    let names: Vec<String> = spec
+        .objectives
+        .iter()
+        .map(|o| format!("{} {}", if o.maximize { "max" } else { "min" }, o.name))
+        .collect();
+    println!(
+        "{}: Pareto front of {} — {} points from {} evaluations ({} runs)",
+        study.name,
+        names.join(", "),
+        result.front.len(),
+        result.evaluations.len(),
+        result.records.len()
+    );
+    // parameter objectives are their parameter's column
+    let shown: Vec<usize> = (0..spec.objectives.len())
+        .filter(|&k| matches!(spec.objectives[k].target, Target::Metric(_)))
+        .collect();
+    let mut header: Vec<String> = spec.free.iter().map(|f| f.spec.label()).collect();
+    header.extend(shown.iter().map(|&k| spec.label(&spec.objectives[k])));
+    println!("  {}", header.join(" | "));
+    for &i in &result.front {
+        let e = &result.evaluations[i];
+        let mut row: Vec<String> = spec
+            .free
+            .iter()
+            .zip(&e.values)
+            .map(|(f, &v)| format!("{:.4}", f.shown(v)))
+            .collect();
+        row.extend(
+            shown
+                .iter()
+                .map(|&k| e.means[k].map_or("-".into(), |v| format!("{v:.6}"))),
+        );
+        println!("  {}", row.join(" | "));
+    }
+    let reference: Vec<String> = result.reference.iter().map(|r| format!("{r:.6}")).collect();
+    println!(
+        "hypervolume {:.6e} w.r.t. ({}); results in {}",
+        result.hypervolume,
+        reference.join(", "),
+        out.display()
+    );
+    let rejected = result
+        .evaluations
+        .iter()
+        .filter(|e| e.rejected.is_some())
+        .count();
+    if rejected > 0 {
+        eprintln!(
+            "magopt: {rejected} points were rejected by the model (no runs; see pareto.json)"
+        );
+    }
+    Ok(0)
 }
 
 fn display(spec: &ParamSpec, x: f64) -> f64 {

@@ -141,22 +141,56 @@ pub fn render_png_sized(path: &Path, fig: &Figure, width: u32, height: u32) -> R
             "image size {width}x{height} px is outside 200..=20000 x 150..=20000"
         )));
     }
+    check_series(fig).map_err(fail)?;
+    ready_to_render(path)?;
+    write_png_atomic(path, (width, height), |root| {
+        draw_figure(root, fig, (width, height))
+    })
+}
+
+/// Renders figures side by side as panels of one PNG of `width` × `height` px (each panel
+/// `width / n` wide), atomically; every panel follows the rules of [`render_png_sized`].
+///
+/// # Errors
+/// As [`render_png_sized`] (the size limits apply to each panel).
+pub fn render_png_panels(path: &Path, figs: &[Figure], width: u32, height: u32) -> Result<()> {
+    let fail = |msg: String| Error::Output(format!("cannot render '{}': {msg}", path.display()));
+    let n = figs.len().max(1) as u32;
+    let panel = width / n;
+    if !(200..=20_000).contains(&panel) || !(150..=20_000).contains(&height) {
+        return Err(fail(format!(
+            "panel size {panel}x{height} px is outside 200..=20000 x 150..=20000"
+        )));
+    }
+    for fig in figs {
+        check_series(fig).map_err(fail)?;
+    }
+    ready_to_render(path)?;
+    write_png_atomic(path, (panel * n, height), |root| {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let areas = root.split_evenly((1, n as usize));
+        for (area, fig) in areas.iter().zip(figs) {
+            draw_figure(area, fig, (panel, height))?;
+        }
+        Ok(())
+    })
+}
+
+/// Checks that each series has as many x as y (and y_err) values.
+fn check_series(fig: &Figure) -> std::result::Result<(), String> {
     for s in &fig.series {
         let err_len = s.y_err.as_ref().map_or(s.y.len(), Vec::len);
         if s.x.len() != s.y.len() || err_len != s.y.len() {
-            return Err(fail(format!(
+            return Err(format!(
                 "series '{}' has {} x, {} y and {} y_err values",
                 s.label,
                 s.x.len(),
                 s.y.len(),
                 err_len
-            )));
+            ));
         }
     }
-    ready_to_render(path)?;
-    write_png_atomic(path, (width, height), |root| {
-        draw_figure(root, fig, (width, height))
-    })
+    Ok(())
 }
 
 /// Draws a `size` bitmap into a temporary file next to `path` and renames it into place, so no

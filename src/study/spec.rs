@@ -40,6 +40,7 @@ struct RawStudy {
     optimize: Option<RawOptimize>,
     snapshots: Option<RawSnapshots>,
     design: Option<RawDesign>,
+    objectives: Option<super::objectives::RawObjectives>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -168,6 +169,8 @@ pub struct Study<M: StudyModel> {
     pub optimize: Option<OptimizeSpec>,
     /// The `[design]` table, if the points come from a design instead of a grid.
     pub design: Option<Design>,
+    /// The `[objectives]` table (multi-objective optimization by `magopt optimize`), if any.
+    pub objectives: Option<super::objectives::ObjectivesSpec>,
     /// The `[snapshots]` table: every run writes its particle frames (its model's own moments
     /// and these) into `runs/<id>/snapshots/`.
     pub snapshots: Option<Schedule>,
@@ -238,6 +241,11 @@ impl<M: StudyModel> Study<M> {
             .transpose()
             .map_err(at)?;
         let snapshots = raw.snapshots.map(snapshots).transpose().map_err(at)?;
+        let objectives = raw
+            .objectives
+            .map(|o| super::objectives::parse(model, o))
+            .transpose()
+            .map_err(at)?;
         let design = match raw.design {
             Some(_) if !axes.is_empty() => {
                 return Err(at(Error::input(
@@ -276,6 +284,7 @@ impl<M: StudyModel> Study<M> {
             axes,
             optimize,
             design,
+            objectives,
             snapshots,
             text: text.to_string(),
         };
