@@ -151,20 +151,7 @@ impl Gp {
             }
         }
         let (_, theta) = best?;
-        let hyper = Hyper::from_theta(&theta);
-        let f = factor(&diffs, &ys, &ns, &hyper, None)?;
-        Some(Gp {
-            x: x.to_vec(),
-            y: ys,
-            noise: ns,
-            hyper,
-            shift,
-            scale,
-            mean: f.mean,
-            chol: f.chol,
-            alpha: f.alpha,
-            lml: f.lml,
-        })
+        Self::with_hyper(x, y, noise, Hyper::from_theta(&theta))
     }
 
     /// A process with the given hyperparameters (standardized units), standardizing `y`.
