@@ -239,7 +239,11 @@ pub fn run(
     // The moments and scheduled times are stops only for a run that writes frames (a stop
     // splits the adaptive step sequence, so a run without files keeps the sample stops only).
     let scheduled = recorder.as_ref().map_or(&[][..], |r| r.times());
-    let moments = if recorder.is_some() { &MOMENTS[..] } else { &[] };
+    let moments = if recorder.is_some() {
+        &MOMENTS[..]
+    } else {
+        &[]
+    };
     let mut stops: Vec<f64> = (0..=params.samples)
         .map(|k| t_end * k as f64 / params.samples as f64)
         .chain(moments.iter().map(|(_, f)| f * t_end))
