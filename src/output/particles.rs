@@ -37,7 +37,7 @@ mod xyz;
 pub use lammps::{lammps_dump, lammps_frames, read_lammps_dump, read_lammps_dump_frame};
 pub use parquet::{read_particle_table, table, write_particle_table};
 pub use vtk::{legacy_vtk, read_vtk};
-pub use xyz::{append_xyz, extended_xyz, read_xyz, write_xyz_frames, xyz_frame_count};
+pub use xyz::{extended_xyz, read_xyz, xyz_frame_count};
 
 use std::path::Path;
 
@@ -213,12 +213,75 @@ impl ParticleFrame {
     /// Writes `<dir>/<stem>.xyz`, `.dump` (LAMMPS), `.vtk` and `.parquet`, each atomically;
     /// creates `dir`.
     pub fn write_all(&self, dir: &Path, stem: &str) -> Result<()> {
+        self.write_formats(dir, stem, 0, &Format::ALL).map(drop)
+    }
+
+    /// Writes `<dir>/<stem>.<ext>` in each of `formats`, each atomically (`step`: the LAMMPS
+    /// timestep); creates `dir`. Returns the frame's extended XYZ text.
+    pub fn write_formats(
+        &self,
+        dir: &Path,
+        stem: &str,
+        step: u64,
+        formats: &[Format],
+    ) -> Result<String> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        let file = |ext: &str| dir.join(format!("{stem}.{ext}"));
-        write_atomic(&file("xyz"), extended_xyz(self).as_bytes())?;
-        write_atomic(&file("dump"), lammps_dump(self, 0)?.as_bytes())?;
-        write_atomic(&file("vtk"), legacy_vtk(self).as_bytes())?;
-        write_particle_table(&file("parquet"), self)
+        let xyz = extended_xyz(self);
+        for format in formats {
+            let path = dir.join(format!("{stem}.{}", format.extension()));
+            match format {
+                Format::Xyz => write_atomic(&path, xyz.as_bytes())?,
+                Format::Dump => write_atomic(&path, lammps_dump(self, step)?.as_bytes())?,
+                Format::Vtk => write_atomic(&path, legacy_vtk(self).as_bytes())?,
+                Format::Parquet => write_particle_table(&path, self)?,
+            }
+        }
+        Ok(xyz)
+    }
+}
+
+/// A particle file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Extended XYZ (OVITO, ASE).
+    Xyz,
+    /// LAMMPS `dump custom` (OVITO, LAMMPS tools).
+    Dump,
+    /// Legacy VTK POLYDATA (ParaView).
+    Vtk,
+    /// Parquet table (polars, pandas).
+    Parquet,
+}
+
+impl Format {
+    /// Every format, in the default order.
+    pub const ALL: [Format; 4] = [Format::Xyz, Format::Dump, Format::Vtk, Format::Parquet];
+
+    /// File extension (also the name used on the command line).
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Xyz => "xyz",
+            Format::Dump => "dump",
+            Format::Vtk => "vtk",
+            Format::Parquet => "parquet",
+        }
+    }
+
+    /// Parses a comma-separated list of format names.
+    pub fn parse_list(text: &str) -> std::result::Result<Vec<Format>, String> {
+        let mut formats = Vec::new();
+        for word in text.split(',').map(str::trim) {
+            let format = Self::ALL
+                .into_iter()
+                .find(|f| f.extension() == word)
+                .ok_or_else(|| {
+                    format!("'{word}' is not a snapshot format (allowed: xyz, dump, vtk, parquet)")
+                })?;
+            if !formats.contains(&format) {
+                formats.push(format);
+            }
+        }
+        Ok(formats)
     }
 }
 

@@ -17,60 +17,13 @@
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use super::atomic::write_atomic;
-use super::particles::{
-    extended_xyz, lammps_dump, legacy_vtk, write_particle_table, ParticleFrame,
-};
+pub use super::particles::Format;
+use super::particles::ParticleFrame;
 use crate::units::{parse_quantity, Dimension};
 use crate::{Error, Result};
 
 /// Most frames one run writes.
 pub const MAX_FRAMES: usize = 10_000;
-
-/// A particle file format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
-    /// Extended XYZ (OVITO, ASE).
-    Xyz,
-    /// LAMMPS `dump custom` (OVITO, LAMMPS tools).
-    Dump,
-    /// Legacy VTK POLYDATA (ParaView).
-    Vtk,
-    /// Parquet table (polars, pandas).
-    Parquet,
-}
-
-impl Format {
-    /// Every format, in the default order.
-    pub const ALL: [Format; 4] = [Format::Xyz, Format::Dump, Format::Vtk, Format::Parquet];
-
-    /// File extension (also the name used on the command line).
-    pub fn extension(self) -> &'static str {
-        match self {
-            Format::Xyz => "xyz",
-            Format::Dump => "dump",
-            Format::Vtk => "vtk",
-            Format::Parquet => "parquet",
-        }
-    }
-
-    /// Parses a comma-separated list of format names.
-    pub fn parse_list(text: &str) -> std::result::Result<Vec<Format>, String> {
-        let mut formats = Vec::new();
-        for word in text.split(',').map(str::trim) {
-            let format = Self::ALL
-                .into_iter()
-                .find(|f| f.extension() == word)
-                .ok_or_else(|| {
-                    format!("'{word}' is not a snapshot format (allowed: xyz, dump, vtk, parquet)")
-                })?;
-            if !formats.contains(&format) {
-                formats.push(format);
-            }
-        }
-        Ok(formats)
-    }
-}
 
 /// Which frames a run writes besides its model's own moments.
 #[derive(Debug, Clone, PartialEq)]
@@ -269,18 +222,7 @@ impl<'a> Recorder<'a> {
     }
 
     fn try_write(&mut self, stem: &str, step: u64, frame: &ParticleFrame) -> Result<()> {
-        let dir = &self.dir;
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        let xyz = extended_xyz(frame);
-        for format in &self.schedule.formats {
-            let path = dir.join(format!("{stem}.{}", format.extension()));
-            match format {
-                Format::Xyz => write_atomic(&path, xyz.as_bytes())?,
-                Format::Dump => write_atomic(&path, lammps_dump(frame, step)?.as_bytes())?,
-                Format::Vtk => write_atomic(&path, legacy_vtk(frame).as_bytes())?,
-                Format::Parquet => write_particle_table(&path, frame)?,
-            }
-        }
+        let xyz = frame.write_formats(&self.dir, stem, step, &self.schedule.formats)?;
         let part = self.dir.join("trajectory.xyz.part");
         if self.trajectory.is_none() {
             let file = std::fs::File::create(&part).map_err(|e| Error::io(&part, e))?;

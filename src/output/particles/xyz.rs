@@ -4,12 +4,10 @@
 //! that reads back to the same bits). A multi-frame file is frames one after the other.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use nalgebra::Vector3;
 
 use super::{fill_numbers, number, pick_frame, Cell, ParticleFrame, Property};
-use crate::output::atomic::write_atomic;
 use crate::{Error, Result};
 
 /// The fixed leading columns of `Properties`. `type` comes before `species`: OVITO maps both to
@@ -24,23 +22,6 @@ pub fn extended_xyz(frame: &ParticleFrame) -> String {
         text.push_str(&row(frame, i));
     }
     text
-}
-
-/// Writes all `frames` into one multi-frame file, atomically.
-pub fn write_xyz_frames(path: &Path, frames: &[ParticleFrame]) -> Result<()> {
-    let text: String = frames.iter().map(extended_xyz).collect();
-    write_atomic(path, text.as_bytes())
-}
-
-/// Appends `frame` to the file at `path` (created if absent); the file is replaced atomically.
-pub fn append_xyz(path: &Path, frame: &ParticleFrame) -> Result<()> {
-    let mut text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
-        Err(e) => return Err(Error::io(path, e)),
-    };
-    text.push_str(&extended_xyz(frame));
-    write_atomic(path, text.as_bytes())
 }
 
 /// The comment line of a frame.
