@@ -103,7 +103,7 @@ pub fn sensitivity_table(
         t.push_unit(
             name,
             C::OptF64(rows.iter().map(|r| r.values[k]).collect()),
-            unit_of(design, name),
+            unit_of(design),
         );
     }
     t.push_unit(
@@ -120,7 +120,7 @@ pub fn sensitivity_table(
 
 /// Sobol' indices are fractions of the variance; Morris effects are in the metric's unit per
 /// unit-cube coordinate, stated as such.
-fn unit_of(design: &Design, _name: &str) -> &'static str {
+fn unit_of(design: &Design) -> &'static str {
     match design.kind {
         DesignKind::Morris { .. } => "metric unit per unit of the parameter's [0, 1] coordinate",
         _ => "1",
