@@ -225,6 +225,7 @@ fn results_are_bit_identical_at_one_and_two_threads() {
         params,
         model: ModelKind::Dem,
         wall_friction_set: false,
+        anisotropy_set: false,
     };
     let run_with = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()

@@ -62,6 +62,9 @@ fn bayes_finds_the_known_optimum_and_a_rerun_reproduces_it() {
     let ci = v["credible_interval"].as_array().unwrap();
     let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
     assert!(lo <= value && value <= hi, "{lo} {value} {hi}");
+    // τ is a duration: by default the surrogate models ln τ, so the interval stays positive
+    assert_eq!(v["bayes"]["transform"], "log");
+    assert!(lo > 0.0, "interval {lo}–{hi}");
     let region = &v["near_optimal_region"]["field_kOe"];
     assert!(region[0].as_f64().unwrap() <= field && field <= region[1].as_f64().unwrap());
     let evaluations = v["evaluations"].as_array().unwrap().len();
@@ -148,6 +151,7 @@ fn bad_bayes_settings_exit_2_with_one_line_naming_the_key_before_any_run() {
         ("initial = 1", "optimize.initial:"),
         ("budget = -3", "optimize.budget:"),
         ("iterations = 5", "optimize.iterations:"),
+        ("transform = \"sqrt\"", "optimize.transform:"),
     ];
     let study = dir.join("bad.toml");
     let out = dir.join("out");

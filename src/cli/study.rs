@@ -17,6 +17,7 @@ use crate::study::model::{ParamSpec, StudyModel, Value};
 use crate::study::multi;
 use crate::study::objectives::Target;
 use crate::study::optimize::{history_table, optimum_json};
+use crate::study::optimize_points;
 use crate::study::records;
 use crate::study::runner::{self, Shard, SweepOptions};
 use crate::study::spec::{model_name, OptimizeMethod, Study};
@@ -241,6 +242,9 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
             OptimizeMethod::Bayes(b) => b.budget as u64,
             _ => spec.scan_points as u64 + spec.iterations,
         };
+        if !study.axes.is_empty() {
+            return optimize_at_points(m, &study, args, &out, points);
+        }
         let bar = progress::runs(points * study.replicates as u64, true);
         let result = crate::study::optimize::optimize(m, &study, Some(&out), &|| bar.inc(1));
         bar.finish_and_clear();
@@ -258,6 +262,43 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
         }
         Ok(0)
     })
+}
+
+/// `magopt optimize` on a study with `[sweep]` or `[design]` beside `[optimize]`: the optimum
+/// at every point, and its distribution.
+fn optimize_at_points<M: StudyModel>(
+    m: &M,
+    study: &Study<M>,
+    args: &OptimizeArgs,
+    out: &Path,
+    per_point: u64,
+) -> Result<i32> {
+    let n = study.points().len() as u64;
+    let bar = progress::runs(n * per_point * study.replicates as u64, true);
+    let found = optimize_points::optimize_points(m, study, Some(out), &|| bar.inc(1));
+    bar.finish_and_clear();
+    let found = found?;
+    let summary = optimize_points::write_results(m, study, out, &found, &command_line())?;
+    if args.json {
+        println!("{summary}");
+        return Ok(0);
+    }
+    let metric = study.optimize.as_ref().map_or("", |o| o.metric.as_str());
+    println!(
+        "{}: optimum of {metric} at each of {} points ({} with an optimum)",
+        study.name,
+        found.len(),
+        summary["with_optimum"]
+    );
+    for line in optimize_points::distribution_lines(study, &found) {
+        println!("  {line}");
+    }
+    println!("results in {}", out.display());
+    let failed = found.iter().filter(|p| p.optimum.is_err()).count();
+    if failed > 0 {
+        eprintln!("magopt: {failed} points have no optimum (reasons in optima.parquet)");
+    }
+    Ok(0)
 }
 
 /// `magopt optimize` on a study with `[objectives]`: the Pareto front by NSGA-II.

@@ -60,6 +60,22 @@ pub enum ColumnData {
 }
 
 impl ColumnData {
+    /// Row `r` as JSON (null for a missing or non-finite value).
+    pub fn json_at(&self, r: usize) -> serde_json::Value {
+        use serde_json::Value as J;
+        let float = |x: f64| serde_json::Number::from_f64(x).map_or(J::Null, J::Number);
+        match self {
+            ColumnData::F64(v) => float(v[r]),
+            ColumnData::OptF64(v) => v[r].map_or(J::Null, float),
+            ColumnData::I64(v) => J::from(v[r]),
+            ColumnData::OptI64(v) => v[r].map_or(J::Null, J::from),
+            ColumnData::U64(v) => J::from(v[r]),
+            ColumnData::Str(v) => J::from(v[r].clone()),
+            ColumnData::OptStr(v) => v[r].clone().map_or(J::Null, J::from),
+            ColumnData::Bool(v) => J::from(v[r]),
+        }
+    }
+
     /// Number of values.
     pub fn len(&self) -> usize {
         match self {
@@ -207,6 +223,21 @@ impl Table {
     /// Number of rows (0 for a table without columns).
     pub fn n_rows(&self) -> usize {
         self.columns.first().map_or(0, |c| c.data.len())
+    }
+
+    /// The rows as JSON objects (column name → value; null for a missing or non-finite
+    /// value), for summaries that repeat a small table.
+    pub fn to_json_rows(&self) -> Vec<serde_json::Value> {
+        (0..self.n_rows())
+            .map(|r| {
+                let row: serde_json::Map<String, serde_json::Value> = self
+                    .columns
+                    .iter()
+                    .map(|c| (c.name.clone(), c.data.json_at(r)))
+                    .collect();
+                serde_json::Value::Object(row)
+            })
+            .collect()
     }
 
     /// The values of the column called `name`, if any.

@@ -12,6 +12,7 @@ pub mod model;
 pub mod multi;
 pub mod objectives;
 pub mod optimize;
+pub mod optimize_points;
 pub mod param;
 pub mod pareto;
 pub mod plot;

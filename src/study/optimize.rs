@@ -47,7 +47,8 @@ pub struct StudyOptimum {
 /// are the posterior mean's minimizer and the posterior mean there).
 #[derive(Debug, Clone)]
 pub struct BayesResult {
-    /// Posterior standard deviation of the metric's latent mean at the optimum.
+    /// Posterior standard deviation of the metric's latent mean at the optimum (of its ln
+    /// with a log metric: then a relative uncertainty).
     pub std: f64,
     /// 95 % credible interval of that mean (metric units).
     pub interval: (f64, f64),
@@ -58,7 +59,8 @@ pub struct BayesResult {
     pub rounds: usize,
     /// Why it stopped: "budget" or "tolerance".
     pub stop: &'static str,
-    /// The largest expected improvement of the last proposed batch (metric units).
+    /// The largest expected improvement of the last proposed batch (metric units; ln units
+    /// with a log metric).
     pub last_ei: f64,
     /// Per evaluation: its round, and the posterior optimum after that round (value, point
     /// in SI).
@@ -72,8 +74,21 @@ struct Evaluator<'a, M: StudyModel> {
     spec: &'a OptimizeSpec,
     out: Option<&'a Path>,
     tick: &'a (dyn Fn() + Sync),
+    /// Where this optimization sits in its study (see [`Place`]).
+    place: &'a Place,
     records: RefCell<Vec<RunRecord>>,
     evaluations: RefCell<Vec<(Vec<f64>, Point)>>,
+}
+
+/// Where an optimization sits in its study: the values of the study's grid or design point it
+/// optimizes at (empty without `[sweep]`/`[design]`; they lead every run's recorded values),
+/// and the number of points evaluated before it (its runs' point indices follow on).
+#[derive(Debug, Clone, Default)]
+pub struct Place {
+    /// The grid or design point's values, in `study.axes` order.
+    pub values: Vec<Value>,
+    /// Points evaluated by the optimizations before this one.
+    pub offset: usize,
 }
 
 impl<M: StudyModel> Evaluator<'_, M> {
@@ -89,7 +104,7 @@ impl<M: StudyModel> Evaluator<'_, M> {
     /// before any run starts.
     fn evaluate_batch(&self, xs: &[Vec<f64>]) -> Result<Vec<Vec<Option<f64>>>> {
         let (model, study, out, tick) = (self.model, self.study, self.out, self.tick);
-        let first = self.evaluations.borrow().len();
+        let first = self.place.offset + self.evaluations.borrow().len();
         let mut points = Vec::with_capacity(xs.len());
         for x in xs {
             let mut params = study.base.clone();
@@ -100,6 +115,7 @@ impl<M: StudyModel> Evaluator<'_, M> {
             }
             model.check(&params)?;
             let inputs = model.inputs(&params);
+            let values = [self.place.values.clone(), values].concat();
             points.push((params, values, inputs));
         }
         let mut runs: Vec<(RunSpec, usize)> = Vec::new();
@@ -162,31 +178,48 @@ impl<M: StudyModel> Evaluator<'_, M> {
     }
 }
 
-/// Runs the optimization of `study.optimize`. Runs are saved into `out` (if given) as they
-/// finish, and reused when already there.
+/// Runs the optimization of `study.optimize` from `study.base`. Runs are saved into `out` (if
+/// given) as they finish, and reused when already there.
 pub fn optimize<M: StudyModel>(
     model: &M,
     study: &Study<M>,
     out: Option<&Path>,
     tick: &(dyn Fn() + Sync),
 ) -> Result<StudyOptimum> {
+    let _lock = lock(out)?;
+    optimize_at(model, study, out, tick, &Place::default())
+}
+
+/// Prepares and locks the output directory.
+pub(crate) fn lock(out: Option<&Path>) -> Result<Option<crate::output::guard::DirLock>> {
+    match out {
+        Some(dir) => {
+            crate::output::atomic::prepare_output_dir(dir)?;
+            Ok(Some(crate::output::guard::DirLock::acquire(dir)?))
+        }
+        None => Ok(None),
+    }
+}
+
+/// [`optimize`] at a `place` of the study (its `base` already holds the place's values).
+pub(crate) fn optimize_at<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    out: Option<&Path>,
+    tick: &(dyn Fn() + Sync),
+    place: &Place,
+) -> Result<StudyOptimum> {
     let spec = study
         .optimize
         .as_ref()
         .ok_or_else(|| Error::input("the study has no [optimize] table"))?;
-    let _lock = match out {
-        Some(dir) => {
-            crate::output::atomic::prepare_output_dir(dir)?;
-            Some(crate::output::guard::DirLock::acquire(dir)?)
-        }
-        None => None,
-    };
     let evaluator = Evaluator {
         model,
         study,
         spec,
         out,
         tick,
+        place,
         records: RefCell::new(Vec::new()),
         evaluations: RefCell::new(Vec::new()),
     };
@@ -289,10 +322,41 @@ impl From<String> for Failure {
     }
 }
 
+/// A point's sample for the surrogate from its signed replicate values: the replicate mean
+/// m with noise s²/r, or with `log` (a positive metric) s·ln|m| with the delta-method noise
+/// s²/(r m²); None unless every replicate gave a value (and, with `log`, m > 0).
+fn bayes_sample(signed: &[Option<f64>], sign: f64, log: bool) -> bayes::Sample {
+    let p = Point {
+        x: 0.0,
+        values: signed.iter().map(|v| v.map(|v| sign * v)).collect(),
+    };
+    let r = signed.len() as f64;
+    let (m, noise) = (p.mean(), p.std().powi(2) / r);
+    let complete = p.complete() && m.is_finite();
+    let (mean, noise) = match (complete, log) {
+        (false, _) => (None, 0.0),
+        (true, false) => (Some(sign * m), noise),
+        (true, true) if m > 0.0 => (Some(sign * m.ln()), noise / (m * m)),
+        (true, true) => (None, 0.0),
+    };
+    bayes::Sample { mean, noise }
+}
+
 /// `method = "bayes"`: the loop of [`bayes::minimize`] on the unit cube, each batch evaluated
-/// by [`Evaluator::evaluate_batch`]; a point's sample is its replicate mean with noise s²/r.
+/// by [`Evaluator::evaluate_batch`]; a point's sample is [`bayes_sample`]. With a log metric
+/// the posterior values are mapped back by exp (the interval's ends too: a quantile maps to
+/// the quantile).
 fn bayesian<M: StudyModel>(evaluator: &Evaluator<'_, M>, b: &BayesSpec) -> Result<StudyOptimum> {
     let (spec, study) = (evaluator.spec, evaluator.study);
+    let sign = if spec.maximize { -1.0 } else { 1.0 };
+    // the surrogate's value z back in metric units
+    let metric = |z: f64| {
+        if b.log_metric {
+            (sign * z).exp()
+        } else {
+            sign * z
+        }
+    };
     let settings = bayes::Settings {
         budget: b.budget,
         batch: b.batch,
@@ -307,21 +371,7 @@ fn bayesian<M: StudyModel>(evaluator: &Evaluator<'_, M>, b: &BayesSpec) -> Resul
         Ok::<_, Failure>(
             values
                 .iter()
-                .map(|v| {
-                    let p = Point {
-                        x: 0.0,
-                        values: v.clone(),
-                    };
-                    let r = v.len() as f64;
-                    bayes::Sample {
-                        mean: p.complete().then(|| p.mean()).filter(|m| m.is_finite()),
-                        noise: if p.complete() {
-                            p.std().powi(2) / r
-                        } else {
-                            0.0
-                        },
-                    }
-                })
+                .map(|v| bayes_sample(v, sign, b.log_metric))
                 .collect(),
         )
     })
@@ -336,16 +386,15 @@ fn bayesian<M: StudyModel>(evaluator: &Evaluator<'_, M>, b: &BayesSpec) -> Resul
             spec.metric
         )));
     }
-    let sign = if spec.maximize { -1.0 } else { 1.0 };
-    let (lo, hi) = outcome.interval;
-    let interval = if spec.maximize { (-hi, -lo) } else { (lo, hi) };
+    let (lo, hi) = (metric(outcome.interval.0), metric(outcome.interval.1));
+    let interval = (lo.min(hi), lo.max(hi));
     let corners = |f: fn(&(f64, f64)) -> f64| -> Vec<f64> {
         from_unit(spec, &outcome.region.iter().map(f).collect::<Vec<_>>())
     };
     let (low, high) = (corners(|r| r.0), corners(|r| r.1));
     Ok(StudyOptimum {
         best: from_unit(spec, &outcome.x),
-        value: sign * outcome.value,
+        value: metric(outcome.value),
         one_dimensional: None,
         evaluations,
         records: evaluator.records.take(),
@@ -359,7 +408,7 @@ fn bayesian<M: StudyModel>(evaluator: &Evaluator<'_, M>, b: &BayesSpec) -> Resul
             history: outcome
                 .evaluations
                 .iter()
-                .map(|e| (e.round, sign * e.best, from_unit(spec, &e.best_x)))
+                .map(|e| (e.round, metric(e.best), from_unit(spec, &e.best_x)))
                 .collect(),
         }),
     })
@@ -535,6 +584,7 @@ pub fn optimum_json<M: StudyModel>(
                 "batch": settings.batch,
                 "initial": settings.initial,
                 "tolerance": settings.tolerance,
+                "transform": if settings.log_metric { "log" } else { "none" },
                 "rounds": b.rounds,
                 "stop": b.stop,
                 "last_expected_improvement": finite(b.last_ei),

@@ -632,8 +632,13 @@ pub fn write_optimize_results<M: StudyModel>(
     command: &str,
 ) -> Result<()> {
     let free = study.optimize.as_ref().map_or(&[][..], |o| &o.free[..]);
+    // a run's values: its grid or design point's (if any), then the free parameters'
+    let axes = study.axes.iter().map(|a| a.spec);
     let cols = Columns {
-        axes: free.iter().map(|(s, ..)| (s.column(), *s)).collect(),
+        axes: axes
+            .chain(free.iter().map(|(s, ..)| *s))
+            .map(|s| (s.column(), s))
+            .collect(),
         metrics: study.metrics.clone(),
         series_units: series_units(model),
     };

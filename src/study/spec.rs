@@ -76,6 +76,7 @@ struct RawOptimize {
     batch: Option<i64>,
     initial: Option<i64>,
     tolerance: Option<f64>,
+    transform: Option<String>,
 }
 
 /// One swept parameter and its values (SI).
@@ -143,6 +144,8 @@ pub struct BayesSpec {
     pub initial: usize,
     /// Stop when the best expected improvement is below this × the observed spread.
     pub tolerance: f64,
+    /// Whether the surrogate models ln of the metric's replicate mean (a positive metric).
+    pub log_metric: bool,
 }
 
 /// Most evaluated points of a Bayesian optimization (the surrogate costs O(n³) per fit).
@@ -274,6 +277,17 @@ impl<M: StudyModel> Study<M> {
                 axis.spec.name
             ))));
         }
+        if let Some(free) = optimize.as_ref().and_then(|o| {
+            o.free
+                .iter()
+                .find(|(s, ..)| axes.iter().any(|a| a.spec.name == s.name))
+        }) {
+            return Err(at(Error::input(format!(
+                "optimize.parameters.{0}: {0} is also a swept or design parameter (the \
+                 optimization is run at every point of the grid or design: free it in one place)",
+                free.0.name
+            ))));
+        }
         let study = Self {
             name,
             replicates,
@@ -372,6 +386,25 @@ impl<M: StudyModel> Study<M> {
                 })
                 .collect()
         })
+    }
+
+    /// The study without its grid or design, from `base` (a point's parameters): what an
+    /// optimization at that point runs.
+    pub fn at(&self, base: M::Params) -> Study<M> {
+        Study {
+            name: self.name.clone(),
+            replicates: self.replicates,
+            seed: self.seed,
+            metrics: self.metrics.clone(),
+            base,
+            base_values: self.base_values.clone(),
+            axes: Vec::new(),
+            optimize: self.optimize.clone(),
+            design: None,
+            objectives: self.objectives.clone(),
+            snapshots: self.snapshots.clone(),
+            text: self.text.clone(),
+        }
     }
 
     /// Parameters at a grid point (checked).
@@ -849,8 +882,23 @@ fn optimize<M: StudyModel>(model: &M, raw: RawOptimize) -> Result<OptimizeSpec> 
     })
 }
 
+/// `transform`: "log" (the surrogate models ln of the replicate mean, for a positive metric)
+/// or "none"; by default "log" for durations (metrics in s, such as τ_0.95, whose noise grows
+/// with their size and whose values a Gaussian surrogate could otherwise extrapolate below 0),
+/// "none" otherwise.
+fn log_metric(raw: &RawOptimize) -> Result<bool> {
+    match raw.transform.as_deref() {
+        None => Ok(super::records::metric_unit(&raw.metric) == "s"),
+        Some("log") => Ok(true),
+        Some("none") => Ok(false),
+        Some(other) => Err(Error::input(format!(
+            "transform: '{other}' is not log or none"
+        ))),
+    }
+}
+
 /// `method` and its keys: brent (one parameter) or nelder-mead (several) by default; bayes
-/// with `budget`, `batch`, `initial`, `tolerance` (defaults from
+/// with `budget`, `batch`, `initial`, `tolerance`, `transform` (defaults from
 /// [`crate::study::bayes::Settings::defaults`]). Errors name the key (without `optimize.`).
 fn optimize_method(raw: &RawOptimize, dims: usize) -> Result<OptimizeMethod> {
     let default = if dims == 1 { "brent" } else { "nelder-mead" };
@@ -860,6 +908,7 @@ fn optimize_method(raw: &RawOptimize, dims: usize) -> Result<OptimizeMethod> {
         ("batch", raw.batch.is_some()),
         ("initial", raw.initial.is_some()),
         ("tolerance", raw.tolerance.is_some()),
+        ("transform", raw.transform.is_some()),
     ];
     if name != "bayes" {
         if let Some((key, _)) = bayes_keys.iter().find(|(_, given)| *given) {
@@ -913,6 +962,7 @@ fn optimize_method(raw: &RawOptimize, dims: usize) -> Result<OptimizeMethod> {
                 batch,
                 initial,
                 tolerance: settings.tolerance,
+                log_metric: log_metric(raw)?,
             }))
         }
         other => Err(Error::input(format!(

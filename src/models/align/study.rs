@@ -25,6 +25,8 @@ pub struct AlignSetup {
     pub model: ModelKind,
     /// Whether `wall_friction` was set explicitly (else it follows `friction`).
     pub wall_friction_set: bool,
+    /// Whether `anisotropy_constant` was set explicitly (then it survives a later `material`).
+    pub anisotropy_set: bool,
 }
 
 /// A packing computed once and shared by every run of its seed (or the reason it failed).
@@ -49,11 +51,35 @@ static PARAMETERS: &[AlignParam] = &[
         ),
         get: |s| Some(Value::Text(s.params.material.name.clone())),
         set: |m, s, v| {
+            let k = s.params.material.anisotropy_constant;
             s.params.material = m
                 .materials
                 .get(v.as_text())
                 .map_err(|e| e.to_string())?
                 .clone();
+            if s.anisotropy_set {
+                s.params.material.anisotropy_constant = k;
+            }
+            Ok(())
+        },
+    },
+    Param {
+        spec: ParamSpec::quantity(
+            "anisotropy_constant",
+            D::EnergyDensity,
+            "kJ/m3",
+            "First uniaxial anisotropy constant K of the particles, in place of the material's \
+             (an uncertain or varied K; H_K = 2K/(μ0 M_s))",
+        )
+        .within(Bounds::POSITIVE)
+        .derived("the material's"),
+        get: |s| {
+            s.anisotropy_set
+                .then_some(Value::Number(s.params.material.anisotropy_constant))
+        },
+        set: |_, s, v| {
+            s.params.material.anisotropy_constant = v.as_number();
+            s.anisotropy_set = true;
             Ok(())
         },
     },
@@ -285,6 +311,7 @@ impl StudyModel for AlignModel {
             params: AlignParams::paper_defaults(material, 40.0 * si_per_unit("kOe")),
             model: ModelKind::Dem,
             wall_friction_set: false,
+            anisotropy_set: false,
         }
     }
 
