@@ -89,6 +89,14 @@ fn bayes_finds_the_known_optimum_and_a_rerun_reproduces_it() {
         panic!("best column")
     };
     assert_eq!(best.last().copied(), Some(value));
+    // `magopt plot` draws the optimization history
+    let (code, stdout, stderr) = magopt(&["plot", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        out.join("plots/history_alignment_time_s.png").is_file(),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(out.join("plots")).unwrap();
     // every run was saved: a re-run reloads them, re-proposes the same points and reports
     // the same optimum
     let runs = std::fs::read_dir(out.join("runs")).unwrap().count();

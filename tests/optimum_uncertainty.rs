@@ -89,6 +89,11 @@ fn the_optimal_field_over_sampled_anisotropy_constants_scales_with_k() {
     assert_eq!(q, &["optimum_field_kOe", "alignment_time_s"]);
     let mean = numbers(&d, "mean");
     assert!((mean[0] - h.iter().sum::<f64>() / 6.0).abs() < 1e-9);
+    // `magopt plot` draws the optimum's histogram
+    let (code, stdout, stderr) = magopt(&["plot", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("optimum_field_kOe.png"), "{stdout}");
+    std::fs::remove_dir_all(out.join("plots")).unwrap();
     // every run is saved: a re-run reloads them all and writes the same optima
     let runs = std::fs::read_dir(out.join("runs")).unwrap().count();
     let first = std::fs::read(out.join("optima.parquet")).unwrap();

@@ -17,6 +17,7 @@ pub mod param;
 pub mod pareto;
 pub mod plot;
 pub mod plot_design;
+pub mod plot_optimize;
 pub mod records;
 pub mod runner;
 pub mod sensitivity_tables;

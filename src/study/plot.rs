@@ -8,7 +8,10 @@
 //! - `series_{observable}.png`: the time series of every run, one colour per grid point
 //!   (at most [`MAX_SERIES_POINTS`] evenly chosen points).
 //!
-//! Text-valued swept parameters only ever label lines, never form an x axis.
+//! Text-valued swept parameters only ever label lines, never form an x axis. A design study
+//! adds its sensitivity and distribution figures (`plot_design`); an optimization's directory
+//! (`optimum.json` or `pareto.json`, no summary) gets its history, optima or front
+//! (`plot_optimize`).
 
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -108,8 +111,12 @@ struct Study {
 /// provenance is not valid JSON of the expected shape, or a column it announces is missing;
 /// [`Error::Io`] / [`Error::Output`] if a file cannot be read or a figure cannot be written.
 pub fn plot_study(dir: &Path) -> Result<Vec<PathBuf>> {
-    let study = load_study(dir)?;
     let out = dir.join("plots");
+    if !dir.join("summary.parquet").is_file() && super::plot_optimize::is_optimization(dir) {
+        std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+        return super::plot_optimize::optimization_figures(dir, &out);
+    }
+    let study = load_study(dir)?;
     std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
     let mut written = metric_figures(&study, &out)?;
     if study.prov.design.is_some() {

@@ -40,12 +40,13 @@ fn strings<'a>(t: &'a Table, name: &str) -> &'a [String] {
 }
 
 /// The column as numbers (NaN for null or a missing column).
-fn numbers(t: &Table, name: &str) -> Vec<f64> {
+pub(crate) fn numbers(t: &Table, name: &str) -> Vec<f64> {
     match t.column(name) {
         Some(ColumnData::OptF64(v)) => v.iter().map(|x| x.unwrap_or(f64::NAN)).collect(),
         Some(ColumnData::F64(v)) => v.clone(),
         Some(ColumnData::OptI64(v)) => v.iter().map(|x| x.map_or(f64::NAN, |x| x as f64)).collect(),
         Some(ColumnData::I64(v)) => v.iter().map(|x| *x as f64).collect(),
+        Some(ColumnData::U64(v)) => v.iter().map(|x| *x as f64).collect(),
         _ => vec![f64::NAN; t.n_rows()],
     }
 }
@@ -116,15 +117,21 @@ fn sensitivity_figure(t: &Table, metric: &str) -> Figure {
     }
 }
 
-/// Histogram of a metric over the successful runs (√n bins, at least 5), as a step line.
+/// Histogram of a metric over the successful runs.
 fn histogram(runs: &Table, metric: &str) -> Figure {
     let ok = strings(runs, "status");
     let v: Vec<f64> = numbers(runs, metric)
         .into_iter()
         .enumerate()
-        .filter(|(r, x)| x.is_finite() && ok.get(*r).is_none_or(|s| s == "ok"))
+        .filter(|(r, _)| ok.get(*r).is_none_or(|s| s == "ok"))
         .map(|(_, x)| x)
         .collect();
+    histogram_figure(&v, metric, "runs per bin")
+}
+
+/// Histogram of the finite values (√n bins, at least 5) as a step line, titled by their count.
+pub(crate) fn histogram_figure(values: &[f64], label: &str, y_label: &str) -> Figure {
+    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     let (lo, hi) = v
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
@@ -149,9 +156,9 @@ fn histogram(runs: &Table, metric: &str) -> Figure {
     x.push(lo + bins as f64 * width);
     y.push(0.0);
     Figure {
-        title: format!("{metric} over {} runs", v.len()),
-        x_label: metric.into(),
-        y_label: "runs per bin".into(),
+        title: format!("{label}: {} values", v.len()),
+        x_label: label.into(),
+        y_label: y_label.into(),
         series: vec![Series {
             label: String::new(),
             x,
