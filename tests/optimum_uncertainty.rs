@@ -162,3 +162,69 @@ fn an_anisotropy_constant_survives_the_material_whatever_the_key_order() {
     let plain = Study::parse(&model, "model = \"align\"\n", "p.toml").unwrap();
     assert_eq!(plain.base.params.material.anisotropy_constant, 350e3);
 }
+
+/// Two processes as shards 0/2 and 1/2 of one Bayesian optimization (same --out): each runs
+/// half of every batch and waits for the other's; both end at the optimum a single process
+/// finds, and shard 0 writes it.
+#[test]
+fn two_shards_in_lockstep_reach_the_single_process_optimum() {
+    let dir = temp_dir("shards");
+    let study = dir.join("bo.toml");
+    std::fs::write(
+        &study,
+        "name = \"bo\"\nmodel = \"align\"\nreplicates = 2\n[base]\nmodel = \"ensemble\"\n\
+         particles = 200\n[optimize]\nparameters = { field = [\"10kOe\", \"80kOe\"] }\n\
+         metric = \"alignment_time_s\"\nmethod = \"bayes\"\nbudget = 10\nbatch = 2\n",
+    )
+    .unwrap();
+    let single = dir.join("single");
+    let s = study.to_str().unwrap();
+    let (code, _, stderr) = magopt(&["optimize", s, "--out", single.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let shared = dir.join("shared");
+    let spawn = |shard: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_magopt"))
+            .args([
+                "optimize",
+                s,
+                "--out",
+                shared.to_str().unwrap(),
+                "--shard",
+                shard,
+            ])
+            .args(["--threads", "1"])
+            .output()
+            .unwrap()
+    };
+    let (a, b) = std::thread::scope(|scope| {
+        let a = scope.spawn(|| spawn("0/2"));
+        let b = scope.spawn(|| spawn("1/2"));
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    for o in [&a, &b] {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let read = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("optimum.json")).unwrap()).unwrap()
+    };
+    let (one, two) = (read(&single), read(&shared));
+    assert_eq!(one["optimum"], two["optimum"]);
+    assert_eq!(one["value"], two["value"]);
+    assert_eq!(one["evaluations"], two["evaluations"]);
+    // a lone shard whose peer never starts gives up after the timeout with a one-line error
+    let lone = dir.join("lone");
+    let (code, _, stderr) = magopt(&[
+        "optimize",
+        s,
+        "--out",
+        lone.to_str().unwrap(),
+        "--shard",
+        "0/2",
+        "--shard-timeout",
+        "1",
+    ]);
+    assert_ne!(code, 0, "{stderr}");
+    assert!(stderr.contains("shard 1/2 is not running"), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -16,8 +16,9 @@ use crate::output::table::{read_parquet, write_parquet};
 use crate::study::model::{ParamSpec, StudyModel, Value};
 use crate::study::multi;
 use crate::study::objectives::Target;
-use crate::study::optimize::{history_table, optimum_json};
+use crate::study::optimize::{history_table, optimize_sharded, optimum_json};
 use crate::study::optimize_points;
+use crate::study::optimize_shard::ShardWait;
 use crate::study::records;
 use crate::study::runner::{self, Shard, SweepOptions};
 use crate::study::spec::{model_name, OptimizeMethod, Study};
@@ -62,6 +63,46 @@ pub struct OptimizeArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     json: bool,
+    /// Run as shard I of N processes in lockstep, all with the same --out on a shared file
+    /// system (a Slurm array): each runs its share of every batch and reads the others'; all
+    /// reach the same optimum, and shard 0 writes the results.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<Shard>,
+    /// With --shard: seconds a peer shard may be silent (its lock file untouched) before
+    /// waiting for its runs fails.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 600.0,
+        requires = "shard"
+    )]
+    shard_timeout: f64,
+}
+
+impl OptimizeArgs {
+    /// The shard plan, checked.
+    fn shard_wait(&self) -> Result<Option<ShardWait>> {
+        if !(self.shard_timeout > 0.0 && self.shard_timeout.is_finite()) {
+            return Err(Error::input(format!(
+                "--shard-timeout: {} is not allowed (need a positive number of seconds)",
+                self.shard_timeout
+            )));
+        }
+        if self.shard.is_some() && self.out.is_none() {
+            return Err(Error::input(
+                "--shard: every shard needs the same --out directory (on a shared file system)",
+            ));
+        }
+        Ok(self.shard.map(|shard| ShardWait {
+            shard,
+            timeout_s: self.shard_timeout,
+        }))
+    }
+
+    /// Whether this process writes the result tables (the only process, or shard 0).
+    fn writes(&self) -> bool {
+        self.shard.is_none_or(|s| s.index == 0)
+    }
 }
 
 /// `magopt collect` options.
@@ -227,7 +268,13 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
     let origin = args.study.display().to_string();
     with_model!(db, model.as_str(), origin, |m| {
         let study = Study::parse(m, &text, &origin)?;
+        let shard = args.shard_wait()?;
         if study.objectives.is_some() {
+            if args.shard.is_some() {
+                return Err(Error::input(
+                    "--shard: a Pareto optimization ([objectives]) runs in one process",
+                ));
+            }
             return pareto(m, &study, args);
         }
         let spec = study.optimize.clone().ok_or_else(|| {
@@ -243,12 +290,21 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
             _ => spec.scan_points as u64 + spec.iterations,
         };
         if !study.axes.is_empty() {
-            return optimize_at_points(m, &study, args, &out, points);
+            return optimize_at_points(m, &study, args, &out, points, shard);
         }
         let bar = progress::runs(points * study.replicates as u64, true);
-        let result = crate::study::optimize::optimize(m, &study, Some(&out), &|| bar.inc(1));
+        let result = optimize_sharded(m, &study, Some(&out), &|| bar.inc(1), shard);
         bar.finish_and_clear();
         let result = result?;
+        if !args.writes() {
+            println!(
+                "{}: shard done (optimum {:.6}); shard 0 writes the results into {}",
+                study.name,
+                result.value,
+                out.display()
+            );
+            return Ok(0);
+        }
         records::write_optimize_results(m, &study, &out, &result.records, &command_line())?;
         if let Some(history) = history_table(&study, &result) {
             write_parquet(&out.join("history.parquet"), &history)?;
@@ -272,12 +328,17 @@ fn optimize_at_points<M: StudyModel>(
     args: &OptimizeArgs,
     out: &Path,
     per_point: u64,
+    shard: Option<ShardWait>,
 ) -> Result<i32> {
     let n = study.points().len() as u64;
     let bar = progress::runs(n * per_point * study.replicates as u64, true);
-    let found = optimize_points::optimize_points(m, study, Some(out), &|| bar.inc(1));
+    let found = optimize_points::optimize_points(m, study, Some(out), &|| bar.inc(1), shard);
     bar.finish_and_clear();
     let found = found?;
+    if !args.writes() {
+        println!("{}: shard done; shard 0 writes the results", study.name);
+        return Ok(0);
+    }
     let summary = optimize_points::write_results(m, study, out, &found, &command_line())?;
     if args.json {
         println!("{summary}");

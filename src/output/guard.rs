@@ -49,7 +49,12 @@ pub struct DirLock {
 impl DirLock {
     /// Takes the lock of `dir` (which must exist), or says which process holds it.
     pub fn acquire(dir: &Path) -> Result<Self> {
-        let path = dir.join(".magopt.lock");
+        Self::acquire_named(dir, ".magopt.lock")
+    }
+
+    /// Takes the lock file `name` in `dir` (shards of one optimization each hold their own).
+    pub fn acquire_named(dir: &Path, name: &str) -> Result<Self> {
+        let path = dir.join(name);
         for _ in 0..2 {
             let created = std::fs::OpenOptions::new()
                 .write(true)
@@ -87,6 +92,66 @@ impl DirLock {
             path.display()
         )))
     }
+}
+
+impl DirLock {
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+/// Keeps a lock file's modification time fresh (every [`HEARTBEAT`]) while it lives, so that
+/// processes on other machines sharing the directory can tell a running holder from a dead
+/// one (a process id means nothing across machines).
+#[derive(Debug)]
+pub struct Heartbeat {
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+/// How often a [`Heartbeat`] touches its file.
+pub const HEARTBEAT: std::time::Duration = std::time::Duration::from_secs(5);
+
+impl Heartbeat {
+    /// Starts touching `path`.
+    pub fn start(path: &Path) -> Self {
+        use std::sync::atomic::Ordering;
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let (flag, path) = (stop.clone(), path.to_path_buf());
+        let thread = std::thread::spawn(move || {
+            while !flag.load(Ordering::Relaxed) {
+                if let Ok(file) = std::fs::OpenOptions::new().append(true).open(&path) {
+                    let _ = file.set_modified(std::time::SystemTime::now());
+                }
+                std::thread::park_timeout(HEARTBEAT);
+            }
+        });
+        Self {
+            stop,
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for Heartbeat {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            t.thread().unpark();
+            let _ = t.join();
+        }
+    }
+}
+
+/// Seconds since `path` was last modified (None if it does not exist).
+pub fn age_s(path: &Path) -> Option<f64> {
+    let modified = std::fs::metadata(path).and_then(|m| m.modified()).ok()?;
+    Some(
+        std::time::SystemTime::now()
+            .duration_since(modified)
+            .map_or(0.0, |d| d.as_secs_f64()),
+    )
 }
 
 impl Drop for DirLock {

@@ -13,6 +13,7 @@ pub mod multi;
 pub mod objectives;
 pub mod optimize;
 pub mod optimize_points;
+pub mod optimize_shard;
 pub mod param;
 pub mod pareto;
 pub mod plot;

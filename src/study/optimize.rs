@@ -16,6 +16,7 @@ use std::path::Path;
 
 use super::bayes;
 use super::model::{ParamKind, ParamSpec, RunContext, StudyModel, Value};
+use super::optimize_shard::ShardWait;
 use super::records::RunRecord;
 use super::runner::load_or_run;
 use super::spec::{run_id, BayesSpec, OptimizeMethod, OptimizeSpec, RunSpec, Study};
@@ -76,6 +77,8 @@ struct Evaluator<'a, M: StudyModel> {
     tick: &'a (dyn Fn() + Sync),
     /// Where this optimization sits in its study (see [`Place`]).
     place: &'a Place,
+    /// This process's shard, if the optimization is split over processes.
+    shard: Option<ShardWait>,
     records: RefCell<Vec<RunRecord>>,
     evaluations: RefCell<Vec<(Vec<f64>, Point)>>,
 }
@@ -144,16 +147,37 @@ impl<M: StudyModel> Evaluator<'_, M> {
                 ));
             }
         }
-        let done: Vec<Result<RunRecord>> = runs
+        let shard = self.shard;
+        let mine = |j: usize| shard.is_none_or(|s| s.runs(j));
+        let done: Vec<Result<Option<RunRecord>>> = runs
             .par_iter()
-            .map(|(run, k)| {
+            .enumerate()
+            .map(|(j, (run, k))| {
+                if !mine(j) {
+                    return Ok(None);
+                }
                 // a saved run keeps its result; its position is this evaluation's
                 let record = load_or_run(model, run, &points[*k].0, out, true, &RunContext::QUIET)?;
                 tick();
-                Ok(record)
+                Ok(Some(record))
             })
             .collect();
-        let done = done.into_iter().collect::<Result<Vec<_>>>()?;
+        let mut done_all = Vec::with_capacity(runs.len());
+        for (j, record) in done.into_iter().enumerate() {
+            let record = match (record?, self.shard, out) {
+                (Some(r), ..) => r,
+                (None, Some(shard), Some(dir)) => {
+                    let r = shard.wait(dir, &runs[j].0, j)?;
+                    tick();
+                    r
+                }
+                (None, ..) => {
+                    return Err(Error::input("--shard: a sharded optimization needs --out"))
+                }
+            };
+            done_all.push(record);
+        }
+        let done = done_all;
         let sign = if self.spec.maximize { -1.0 } else { 1.0 };
         let mut signed = Vec::with_capacity(xs.len());
         for (k, x) in xs.iter().enumerate() {
@@ -186,19 +210,55 @@ pub fn optimize<M: StudyModel>(
     out: Option<&Path>,
     tick: &(dyn Fn() + Sync),
 ) -> Result<StudyOptimum> {
-    let _lock = lock(out)?;
-    optimize_at(model, study, out, tick, &Place::default())
+    optimize_sharded(model, study, out, tick, None)
 }
 
-/// Prepares and locks the output directory.
-pub(crate) fn lock(out: Option<&Path>) -> Result<Option<crate::output::guard::DirLock>> {
-    match out {
-        Some(dir) => {
-            crate::output::atomic::prepare_output_dir(dir)?;
-            Ok(Some(crate::output::guard::DirLock::acquire(dir)?))
-        }
-        None => Ok(None),
-    }
+/// [`optimize`] as one shard of several processes (see [`super::optimize_shard`]); every
+/// shard returns the same optimum.
+pub fn optimize_sharded<M: StudyModel>(
+    model: &M,
+    study: &Study<M>,
+    out: Option<&Path>,
+    tick: &(dyn Fn() + Sync),
+    shard: Option<ShardWait>,
+) -> Result<StudyOptimum> {
+    let _lock = lock(out, shard)?;
+    optimize_at(model, study, out, tick, &Place::default(), shard)
+}
+
+/// What holds an output directory: the lock of the whole directory, or a shard's own.
+#[derive(Debug)]
+pub(crate) enum Held {
+    /// The directory's lock.
+    Whole {
+        /// Released on drop.
+        _lock: crate::output::guard::DirLock,
+    },
+    /// A shard's lock and heartbeat.
+    Shard {
+        /// Released on drop.
+        _lock: super::optimize_shard::ShardLock,
+    },
+}
+
+/// Prepares and locks the output directory (a shard takes its own lock, so that the shards of
+/// one optimization share the directory).
+pub(crate) fn lock(out: Option<&Path>, shard: Option<ShardWait>) -> Result<Option<Held>> {
+    let Some(dir) = out else {
+        return match shard {
+            Some(_) => Err(Error::input("--shard: a sharded optimization needs --out")),
+            None => Ok(None),
+        };
+    };
+    crate::output::atomic::prepare_output_dir(dir)?;
+    Ok(Some(match shard {
+        Some(s) => Held::Shard {
+            _lock: s.hold(dir)?,
+        },
+        None => Held::Whole {
+            _lock: crate::output::guard::DirLock::acquire(dir)?,
+        },
+    }))
 }
 
 /// [`optimize`] at a `place` of the study (its `base` already holds the place's values).
@@ -208,6 +268,7 @@ pub(crate) fn optimize_at<M: StudyModel>(
     out: Option<&Path>,
     tick: &(dyn Fn() + Sync),
     place: &Place,
+    shard: Option<ShardWait>,
 ) -> Result<StudyOptimum> {
     let spec = study
         .optimize
@@ -220,6 +281,7 @@ pub(crate) fn optimize_at<M: StudyModel>(
         out,
         tick,
         place,
+        shard,
         records: RefCell::new(Vec::new()),
         evaluations: RefCell::new(Vec::new()),
     };

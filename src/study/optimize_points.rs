@@ -13,6 +13,7 @@ use std::path::Path;
 
 use super::model::{ParamSpec, StudyModel, Value};
 use super::optimize::{lock, optimize_at, Place, StudyOptimum};
+use super::optimize_shard::ShardWait;
 use super::records::{metric_unit, param_unit, value_column};
 use super::spec::Study;
 use crate::numerics::stats::describe;
@@ -44,13 +45,14 @@ pub fn optimize_points<M: StudyModel>(
     study: &Study<M>,
     out: Option<&Path>,
     tick: &(dyn Fn() + Sync),
+    shard: Option<ShardWait>,
 ) -> Result<Vec<PointOptimum>> {
     let points = study.points();
     let bases = points
         .iter()
         .map(|values| study.params_at(model, values))
         .collect::<Result<Vec<_>>>()?;
-    let _lock = lock(out)?;
+    let _lock = lock(out, shard)?;
     let mut offset = 0;
     let mut found = Vec::with_capacity(points.len());
     for (values, base) in points.into_iter().zip(bases) {
@@ -59,7 +61,7 @@ pub fn optimize_points<M: StudyModel>(
             values: values.clone(),
             offset,
         };
-        let optimum = match optimize_at(model, &at, out, tick, &place) {
+        let optimum = match optimize_at(model, &at, out, tick, &place, shard) {
             Ok(o) if o.value.is_finite() => Ok(o),
             Ok(_) => Err(no_value(study)),
             Err(Error::Output(reason)) => Err(reason),
