@@ -199,7 +199,7 @@ fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums_bit_for_bit() {
     p.neighbors = Neighbors::Exact;
     let exact = run_cycle(&p, 3, &|_| {});
     assert!(exact.failure.is_none(), "{:?}", exact.failure);
-    for kind in [Neighbors::Cells, Neighbors::Verlet] {
+    for kind in [Neighbors::Cells, Neighbors::Verlet, Neighbors::SourceVerlet] {
         p.neighbors = kind;
         p.cutoff = Reach::Diameters(100.0);
         p.list_radius = Reach::Diameters(120.0);

@@ -73,6 +73,11 @@ pub enum Neighbors {
     Cells,
     /// Verlet list of radius r_v ≥ r_c, rebuilt on half-skin displacement.
     Verlet,
+    /// The source's variant (de Paula 2025, §5.1, Eq. (5.4)): every pair in a list of radius
+    /// r_v is summed (r_c = r_v, no distance check), and the list is rebuilt only once some
+    /// disc has moved `rebuild_skin` since the last build (its Eq. (5.3)). Between builds it
+    /// keeps pairs that have left r_v and misses pairs that have entered it.
+    SourceVerlet,
 }
 
 /// How dry friction is integrated (see `integrator`).
@@ -178,13 +183,18 @@ pub struct BedParams {
     pub initial_speed: f64,
     /// Neighbour strategy.
     pub neighbors: Neighbors,
-    /// Cut-off r_c in units of D_1 (7.13, the source's tuned value).
+    /// Cut-off r_c in units of D_1 (7.13: r_v − r_s of the source's runs; the source itself
+    /// summed its whole list, see `Neighbors::SourceVerlet`).
     pub cutoff: Reach,
-    /// Verlet list radius r_v in units of D_1 (8; the source tuned 11.26 for its code). r_v
+    /// Verlet list radius r_v in units of D_1 (8; the source used 11.26). With `verlet` r_v
     /// changes no result, only the speed: the pairs inside r_c are the same and are summed in
-    /// the same order. A thinner skin means a shorter pair loop and more frequent rebuilds;
+    /// the same order; with `source-verlet` it is the radius of the sums. A thinner skin means a shorter pair loop and more frequent rebuilds;
     /// 8 D was the faster of 8, 9 and 11.26 at N = 10⁴ (README, bed benchmark).
     pub list_radius: Reach,
+    /// Skin r_s of the source's Verlet variant in units of D_1 (4.13, de Paula 2025, §5.1: the
+    /// distance at which the pair force equals a disc's weight): its list is rebuilt when some
+    /// disc has moved r_s since the last build.
+    pub rebuild_skin: Reach,
     /// Multiple time stepping: pairs beyond `near_cutoff` are summed every this many steps and
     /// held in between (1: every pair every step, the default; needs Verlet lists).
     pub far_field_interval: usize,
@@ -251,6 +261,7 @@ impl BedParams {
             neighbors: Neighbors::Verlet,
             cutoff: Reach::Diameters(7.13),
             list_radius: Reach::Diameters(8.0),
+            rebuild_skin: Reach::Diameters(4.13),
             far_field_interval: 1,
             near_cutoff: Reach::Diameters(3.0),
             time_step_factor: 0.2,

@@ -380,12 +380,14 @@ static PARAMETERS: &[BedParam] = &[
     choice_param!(
         "neighbors",
         "Neighbour handling: exact (all pairs), cells (cut-off list every step), verlet (list \
-         radius r_v, cut-off r_c)",
+         radius r_v, cut-off r_c), source-verlet (the source's: every pair of the r_v list \
+         summed, rebuilt after a displacement of rebuild_skin)",
         neighbors,
         [
             ("exact", Neighbors::Exact),
             ("cells", Neighbors::Cells),
-            ("verlet", Neighbors::Verlet)
+            ("verlet", Neighbors::Verlet),
+            ("source-verlet", Neighbors::SourceVerlet)
         ]
     ),
     Param {
@@ -404,6 +406,17 @@ static PARAMETERS: &[BedParam] = &[
         get: |p| reach_value(p.list_radius),
         set: |_, p, v| {
             p.list_radius = reach_of(v);
+            Ok(())
+        },
+    },
+    Param {
+        spec: reach(
+            "rebuild_skin",
+            "Skin r_s of source-verlet: its list is rebuilt once a disc has moved r_s (source: 4.13)",
+        ),
+        get: |p| reach_value(p.rebuild_skin),
+        set: |_, p, v| {
+            p.rebuild_skin = reach_of(v);
             Ok(())
         },
     },

@@ -18,7 +18,7 @@ impl BedParams {
         }
         let d1 = self.reference_diameter();
         let (rc, rv) = (self.cutoff.diameters(d1), self.list_radius.diameters(d1));
-        if rv < rc {
+        if rv < rc && self.neighbors != Neighbors::SourceVerlet {
             return Err(Error::input(format!(
                 "cutoff {rc} D1 and list_radius {rv} D1: need r_c ≤ r_v"
             )));
