@@ -5,7 +5,8 @@ use super::damper::{damper, REST_LIMIT};
 use std::path::Path;
 
 use super::params::{
-    BedParams, Friction, FrictionScheme, Neighbors, Preset, Reach, Species, TiltOrder, WallLaw,
+    BedParams, Friction, FrictionScheme, Heights, Neighbors, Preset, Reach, Species, TiltOrder,
+    WallLaw,
 };
 use super::protocol::{cycle, recorded};
 use super::report::cycle_figures;
@@ -314,24 +315,46 @@ static PARAMETERS: &[BedParam] = &[
             .aliases(&["velocity"]),
         piston_speed
     ),
+    choice_param!(
+        "heights" aliases &["protocol"],
+        "Piston heights: source (H0 = the cell height H, H_f at max_packing_fraction; \
+         docs/bed-protocol.md) or packing-fractions (H0 at start_packing_fraction)",
+        heights,
+        [
+            ("source", Heights::Source),
+            ("packing-fractions", Heights::PackingFractions)
+        ]
+    ),
     number_param!(
         ParamSpec::new(
             "start_packing_fraction",
             K::Number,
-            "Packing fraction at the start of compression (sets H0)"
+            "Packing fraction at the start of compression (sets H0 with heights = \
+             packing-fractions)"
         )
         .within(Bounds::UNIT_OPEN),
         start_packing_fraction
     ),
-    number_param!(
+    optional_param!(
         ParamSpec::new(
             "max_packing_fraction",
             K::Number,
             "Packing fraction at maximum compression (sets H_f)"
         )
         .within(Bounds::UNIT_OPEN)
-        .aliases(&["packing_fraction"]),
+        .aliases(&["packing_fraction"])
+        .derived("0.2307 mono with heights = source (docs/bed-protocol.md), else 0.34"),
         max_packing_fraction
+    ),
+    optional_param!(
+        ParamSpec::new(
+            "target_force",
+            K::Number,
+            "Piston force, N, at which the compression stops (H_f stays the lowest height)"
+        )
+        .within(POSITIVE)
+        .derived("none: compress to H_f"),
+        target_force
     ),
     number_param!(
         q(
