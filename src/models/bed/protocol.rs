@@ -7,7 +7,10 @@ use std::time::Instant;
 
 use super::forces::ForceField;
 use super::integrator::{step, time_step, Kick};
-use super::observables::{mean_distance, min_piston_distance, min_wall_distance, Snapshot};
+use super::observables::{
+    area_fraction_profile, mean_distance, min_piston_distance, min_wall_distance, Snapshot,
+    AREA_FRACTION_SERIES,
+};
 use super::params::BedParams;
 use super::state::{species_of, Geometry, Particles, State};
 use super::{BedOutcome, Series};
@@ -240,6 +243,10 @@ impl<'a> Simulation<'a> {
             .map(|(v, m)| 0.5 * m * v.norm_squared())
             .sum();
         self.series.push("kinetic_energy", t, ke);
+        let profile = area_fraction_profile(s, &self.particles.diameter, self.geometry.width);
+        for (name, phi) in AREA_FRACTION_SERIES.iter().zip(profile) {
+            self.series.push(name, t, phi);
+        }
         (self.progress)(t);
     }
 

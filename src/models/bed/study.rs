@@ -558,6 +558,46 @@ const SERIES: &[(&str, &str)] = &[
     ("mean_distance_D", "D̂ / ⟨D⟩"),
     ("min_piston_distance", "min particle–piston distance (m)"),
     ("kinetic_energy", "kinetic energy (J)"),
+    (
+        "area_fraction_band_0",
+        "local area fraction, band 1 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_1",
+        "local area fraction, band 2 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_2",
+        "local area fraction, band 3 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_3",
+        "local area fraction, band 4 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_4",
+        "local area fraction, band 5 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_5",
+        "local area fraction, band 6 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_6",
+        "local area fraction, band 7 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_7",
+        "local area fraction, band 8 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_8",
+        "local area fraction, band 9 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_9",
+        "local area fraction, band 10 of 10 from the floor",
+    ),
     ("piston_z", "damper piston height z (m)"),
     ("piston_displacement", "damper z − z_rest (m)"),
 ];
