@@ -5,6 +5,9 @@
 //!
 //! A fixed cut-off r_c with list radius r_v (the usual MD Verlet list) is the special case
 //! R_i = r_c/2, skin = r_v − r_c; a plain cell list is a list rebuilt every step with skin 0.
+//! A list may also be rebuilt on another displacement than half its skin
+//! ([`NeighborList::with_rebuild_distance`]): then pairs can enter R_i + R_j unseen between
+//! builds, which is what a list summed without a cut-off (de Paula 2025, §5.1) does.
 
 use std::ops::Range;
 
@@ -22,17 +25,26 @@ pub struct NeighborList<const D: usize = 3> {
     neighbors: Vec<u32>,
     reference: Vec<SVector<f64, D>>,
     skin: f64,
+    /// Largest displacement since the last build that needs no rebuild.
+    rebuild: f64,
     builds: usize,
 }
 
 impl<const D: usize> NeighborList<D> {
     /// An empty list with the given skin (same length unit as the positions).
     pub fn new(skin: f64) -> Self {
+        Self::with_rebuild_distance(skin, 0.5 * skin)
+    }
+
+    /// An empty list with the given skin, rebuilt when some particle has moved more than
+    /// `rebuild` since the last build (same length unit as the positions).
+    pub fn with_rebuild_distance(skin: f64, rebuild: f64) -> Self {
         Self {
             offsets: Vec::new(),
             neighbors: Vec::new(),
             reference: Vec::new(),
             skin,
+            rebuild,
             builds: 0,
         }
     }
@@ -71,7 +83,7 @@ impl<const D: usize> NeighborList<D> {
         if self.reference.len() != positions.len() {
             return true;
         }
-        let limit = 0.25 * self.skin * self.skin;
+        let limit = self.rebuild * self.rebuild;
         positions
             .iter()
             .zip(&self.reference)
@@ -303,6 +315,22 @@ mod tests {
         assert!(!list.update(&moved, &radii));
         let moved = vec![Vector3::new(0.21, 0.0, 0.0), positions[1]];
         assert!(list.update(&moved, &radii));
+    }
+
+    #[test]
+    fn a_rebuild_distance_replaces_the_half_skin_rule() {
+        let positions = vec![Vector2::zeros(), Vector2::new(2.4, 0.0)];
+        let radii = vec![1.0, 1.0];
+        let mut list = NeighborList::<2>::with_rebuild_distance(0.0, 0.5);
+        assert!(list.update(&positions, &radii));
+        assert!(list.of(0).is_empty());
+        // the pair is now inside R_i + R_j = 2, unseen until a particle has moved 0.5
+        let moved = vec![positions[0], Vector2::new(2.4 - 0.49, 0.0)];
+        assert!(!list.update(&moved, &radii));
+        assert!(list.of(0).is_empty());
+        let moved = vec![positions[0], Vector2::new(2.4 - 0.51, 0.0)];
+        assert!(list.update(&moved, &radii));
+        assert_eq!(list.of(0), &[1]);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use magopt::analysis::snapshot::Snapshot as AnalysisSnapshot;
 use magopt::analysis::structure::analyze;
 use magopt::models::bed::damper::run_damper;
 use magopt::models::bed::damper_fit::{fit_damper, FIT_SAMPLES};
-use magopt::models::bed::params::{BedParams, Friction, Preset};
+use magopt::models::bed::params::{BedParams, Friction, Heights, Preset};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::study::BedModel;
 use magopt::models::bed::{STRUCTURE_METRICS, STRUCTURE_STAGES};
@@ -53,6 +53,7 @@ fn run_metrics_equal_the_analysis_of_the_written_snapshots() {
             m.hexagon_regularity_mean,
             m.hexagon_regularity_std,
             m.cells_counted as f64,
+            m.psi6_all,
         ];
         assert!(m.cells_counted > 0, "{label}: no cells counted");
         for (name, want) in STRUCTURE_METRICS[k].iter().zip(expected) {
@@ -70,7 +71,7 @@ fn a_bed_without_counted_cells_leaves_the_structure_empty() {
     // itself completes and its force metrics exist.
     let mut p = BedParams::defaults();
     p.particles = Some(4);
-    p.max_packing_fraction = 0.2;
+    p.max_packing_fraction = Some(0.2);
     p.piston_speed = 0.05;
     p.relaxation_time = 1.0;
     p.piston_decay_time = 0.2;
@@ -122,6 +123,7 @@ fn upward_crossings(z: &[(f64, f64)]) -> Vec<f64> {
 #[test]
 fn damper_motion_is_fitted_by_both_oscillators() {
     let mut p = BedParams::defaults();
+    p.heights = Heights::PackingFractions; // the piston starts low: a short first fall
     p.particles = Some(24);
     p.relaxation_time = 1.0;
     p.piston_decay_time = 0.2;

@@ -6,7 +6,7 @@ mod common;
 use common::magopt;
 
 use magopt::models::bed::damper::run_damper;
-use magopt::models::bed::params::{BedParams, Friction, Preset};
+use magopt::models::bed::params::{BedParams, Friction, Heights, Preset};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::state::Geometry;
 use magopt::output::particles::{read_lammps_dump, read_xyz};
@@ -54,8 +54,75 @@ fn heights_follow_the_packing_fraction_and_the_bidisperse_rule() {
 }
 
 #[test]
+fn source_heights_compress_from_the_top_of_the_cell_over_the_table_a1_strokes() {
+    // de Paula 2025, Table A.1 (D1 = 5 mm, N = 400, H = 0.445 m): T·V_c = H0 − H_f in metres
+    // (R where the interleaving realizes R exactly)
+    let mut p = BedParams::defaults();
+    p.preset = Preset::Bidisperse;
+    for (a, r, stroke) in [
+        (0.6, 0.0, 0.375),
+        (0.6, 0.5, 0.3974),
+        (0.6, 1.0, 0.4198),
+        (0.5, 0.2, 0.3855),
+        (0.75, 0.8, 0.3995),
+    ] {
+        (p.aspect_ratio, p.mixing_ratio) = (a, r);
+        let g = Geometry::of(&p);
+        assert_eq!(g.start_height, g.height);
+        // H_r = 14 D1 for φ = 0.34 holds to the source's rounding (0.2 %)
+        let relative = (g.start_height - g.final_height) / stroke - 1.0;
+        assert!(relative.abs() < 2e-3, "a = {a}, R = {r}: {relative}");
+    }
+    // a small mono-disperse cycle under them ends at the top of its cell
+    let q = small_bed();
+    assert_eq!(q.heights, Heights::Source);
+    let run = run_cycle(&q, 2, &|_| {});
+    assert!(run.failure.is_none(), "{:?}", run.failure);
+    let g = Geometry::of(&q);
+    assert!((run.stroke - (g.height - g.final_height)).abs() < 1e-12);
+    let top = run.series.get("piston_height").last().unwrap().1;
+    assert!((top - g.height).abs() < 1e-9 * g.height, "{top}");
+}
+
+#[test]
+fn compression_can_stop_at_a_target_piston_force() {
+    let mut p = small_bed();
+    p.heights = Heights::PackingFractions; // the shorter stroke keeps the test fast
+    let full = run_cycle(&p, 2, &|_| {});
+    let target = 0.5 * full.force_at_max_compression.unwrap();
+    p.target_force = Some(target);
+    let stopped = run_cycle(&p, 2, &|_| {});
+    assert!(stopped.failure.is_none(), "{:?}", stopped.failure);
+    let force = stopped.force_at_max_compression.unwrap();
+    assert!(
+        force >= target && force < 1.05 * target,
+        "{force} vs {target}"
+    );
+    assert!(
+        stopped.stroke < full.stroke,
+        "{} vs {}",
+        stopped.stroke,
+        full.stroke
+    );
+    // the expansion still returns the piston to H0 (φ_start)
+    assert!((stopped.final_packing_fraction - 0.12).abs() < 1e-12);
+    // a target beyond the force at H_f fails with its reason
+    p.target_force = Some(10.0 * full.max_force.unwrap());
+    let failed = run_cycle(&p, 2, &|_| {});
+    assert!(
+        failed
+            .failure
+            .as_deref()
+            .is_some_and(|r| r.contains("target_force")),
+        "{:?}",
+        failed.failure
+    );
+}
+
+#[test]
 fn dry_friction_gives_hysteresis_and_no_friction_none() {
     let mut p = small_bed();
+    p.heights = Heights::PackingFractions;
     let dry = run_cycle(&p, 2, &|_| {});
     assert!(dry.failure.is_none(), "{:?}", dry.failure);
     assert!((dry.max_packing_fraction - 0.34).abs() < 1e-12);
@@ -183,7 +250,19 @@ fn damper_rests_on_the_bed_and_a_heavy_piston_crushes_it() {
 fn bad_input_is_one_line_and_exit_code_2() {
     let cases: &[(&[&str], &str)] = &[
         (&["--packing-fraction", "0.95"], "max_packing_fraction"),
-        (&["--packing-fraction", "0.1"], "start_packing_fraction"),
+        (
+            &[
+                "--heights",
+                "packing-fractions",
+                "--packing-fraction",
+                "0.1",
+            ],
+            "start_packing_fraction",
+        ),
+        (
+            &["--packing-fraction", "0.05"],
+            "max_packing_fraction: 0.05",
+        ),
         (
             &["--velocity", "0"],
             "--velocity: 0 mm/s is not allowed (need > 0 mm/s)",

@@ -39,6 +39,9 @@ pub struct StructureMetrics {
     pub psi6: f64,
     /// ⟨|ψ6_i|⟩ with bonds weighted by their Voronoi side length, over counted cells.
     pub psi6_weighted: f64,
+    /// Ψ6 = ⟨|ψ6_i|⟩ over every particle, border cells included (de Paula 2025, Eq. (4.28)
+    /// averages "over all particles").
+    pub psi6_all: f64,
     /// Mean regularity R = (4/√3) A / Σ ℓ_k² over counted six-sided cells.
     pub hexagon_regularity_mean: f64,
     /// Sample standard deviation of R over counted six-sided cells (NaN below two).
@@ -171,6 +174,7 @@ fn metrics(particles: usize, cells: &[Cell], order: &[ParticleOrder]) -> Structu
         n7: fraction(&|s| s >= 7),
         psi6: mean_of(&|o| modulus(o.psi6)),
         psi6_weighted: mean_of(&|o| modulus(o.psi6_weighted)),
+        psi6_all: order.iter().map(|o| modulus(o.psi6)).sum::<f64>() / order.len() as f64,
         hexagon_regularity_mean: hexagon_r.mean,
         hexagon_regularity_std: hexagon_r.std,
         hexagons: hexagon_r.count,
@@ -213,6 +217,10 @@ pub(crate) mod tests {
         for c in s.tessellation.cells.iter().filter(|c| c.counted) {
             assert!((c.area() - 3f64.sqrt() / 2.0).abs() < 1e-12);
         }
+        // Over every particle the border (fewer, one-sided neighbours) lowers Ψ6 below 1.
+        let all = s.order.iter().map(|o| modulus(o.psi6)).sum::<f64>() / 400.0;
+        assert_eq!(m.psi6_all, all);
+        assert!(m.psi6_all > 0.5 && m.psi6_all < 0.99, "{}", m.psi6_all);
     }
 
     #[test]

@@ -86,10 +86,12 @@ fn summary(p: &BedParams, record: &RunRecord, damper: bool) {
         show("energy dissipated over the cycle", "cycle_work_J", "J");
         for (names, (_, label)) in STRUCTURE_METRICS.iter().zip(STRUCTURE_STAGES) {
             let v: Vec<Option<f64>> = names.iter().map(|n| m(n)).collect();
-            if let [Some(n5), Some(n6), Some(n7), Some(psi6), Some(reg), _, Some(cells)] = v[..] {
+            if let [Some(n5), Some(n6), Some(n7), Some(psi6), Some(reg), _, Some(cells), Some(all)] =
+                v[..]
+            {
                 println!(
-                    "structure at {label}: n5 {n5:.3}, n6 {n6:.3}, n7 {n7:.3}, Ψ6 {psi6:.3}, \
-                     hexagon regularity {reg:.3}, {cells} cells counted"
+                    "structure at {label}: n5 {n5:.3}, n6 {n6:.3}, n7 {n7:.3}, Ψ6 {psi6:.3} \
+                     (all particles {all:.3}), hexagon regularity {reg:.3}, {cells} cells counted"
                 );
             }
         }

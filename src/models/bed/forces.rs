@@ -95,6 +95,19 @@ impl ForceField {
         let n = particles.len();
         let pairs = match params.neighbors {
             Neighbors::Exact => Pairs::All,
+            Neighbors::SourceVerlet => {
+                let rv = params.list_radius.diameters(d1) * d1;
+                Pairs::Cut {
+                    list: NeighborList::with_rebuild_distance(
+                        0.0,
+                        params.rebuild_skin.diameters(d1) * d1,
+                    ),
+                    radii: vec![0.5 * rv; n],
+                    cutoff2: f64::INFINITY,
+                    every_step: false,
+                    split: None,
+                }
+            }
             kind => {
                 let (rc, rv) = (
                     params.cutoff.diameters(d1) * d1,

@@ -193,6 +193,7 @@ impl BedOutcome {
                     m.hexagon_regularity_mean,
                     m.hexagon_regularity_std,
                     m.cells_counted as f64,
+                    m.psi6_all,
                 ]
             });
             for (j, name) in names.iter().enumerate() {
@@ -211,8 +212,9 @@ pub const STRUCTURE_STAGES: [(&str, &str); 3] = [
 ];
 
 /// Structure metric names per stage: n5, n6, n7 (fractions of counted Voronoi cells with ≤ 5,
-/// 6, ≥ 7 sides), Ψ6, hexagon regularity mean and std, cells counted (analysis.md).
-pub const STRUCTURE_METRICS: [[&str; 7]; 3] = [
+/// 6, ≥ 7 sides), Ψ6, hexagon regularity mean and std, cells counted (analysis.md), and Ψ6
+/// over every particle (the source's average, de Paula 2025, Eq. (4.28)).
+pub const STRUCTURE_METRICS: [[&str; 8]; 3] = [
     [
         "n5_start",
         "n6_start",
@@ -221,6 +223,7 @@ pub const STRUCTURE_METRICS: [[&str; 7]; 3] = [
         "regularity_start",
         "regularity_std_start",
         "cells_start",
+        "psi6_all_start",
     ],
     [
         "n5_max",
@@ -230,6 +233,7 @@ pub const STRUCTURE_METRICS: [[&str; 7]; 3] = [
         "regularity_max",
         "regularity_std_max",
         "cells_max",
+        "psi6_all_max",
     ],
     [
         "n5_end",
@@ -239,6 +243,7 @@ pub const STRUCTURE_METRICS: [[&str; 7]; 3] = [
         "regularity_end",
         "regularity_std_end",
         "cells_end",
+        "psi6_all_end",
     ],
 ];
 

@@ -55,6 +55,42 @@ pub fn mean_distance(position: &[Vector2<f64>]) -> f64 {
 /// Lanes of the partial sums of [`mean_distance`].
 const LANES: usize = 4;
 
+/// Number of equal horizontal bands of the local area fraction profile.
+pub const AREA_FRACTION_BANDS: usize = 10;
+
+/// Series names of the profile, band 0 at the floor.
+pub const AREA_FRACTION_SERIES: [&str; AREA_FRACTION_BANDS] = [
+    "area_fraction_band_0",
+    "area_fraction_band_1",
+    "area_fraction_band_2",
+    "area_fraction_band_3",
+    "area_fraction_band_4",
+    "area_fraction_band_5",
+    "area_fraction_band_6",
+    "area_fraction_band_7",
+    "area_fraction_band_8",
+    "area_fraction_band_9",
+];
+
+/// Local area fraction in [`AREA_FRACTION_BANDS`] equal horizontal bands between the floor and
+/// the piston: Σ π D_i²/4 of the discs whose centre lies in the band over W × band height (the
+/// profiles of de Paula 2025, Fig. 3.2, with the density inversion near the piston at maximum
+/// compression). A centre below the floor or above the piston counts in the nearest band, so
+/// the mean over the bands is φ.
+pub fn area_fraction_profile(
+    state: &State,
+    diameter: &[f64],
+    width: f64,
+) -> [f64; AREA_FRACTION_BANDS] {
+    let band = state.piston / AREA_FRACTION_BANDS as f64;
+    let mut area = [0.0; AREA_FRACTION_BANDS];
+    for (p, d) in state.position.iter().zip(diameter) {
+        let k = ((p.y / band).floor().max(0.0) as usize).min(AREA_FRACTION_BANDS - 1);
+        area[k] += std::f64::consts::PI * d * d / 4.0;
+    }
+    area.map(|a| a / (width * band))
+}
+
 /// Smallest distance between a particle centre and the piston face, m.
 pub fn min_piston_distance(state: &State) -> f64 {
     state
@@ -171,5 +207,25 @@ mod tests {
             Vector2::new(0.0, 4.0),
         ];
         assert!((mean_distance(&p) - (3.0 + 4.0 + 5.0) / 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn area_fraction_profile_sits_in_its_bands_and_averages_to_phi() {
+        // piston at 1 m: bands of 0.1 m; discs of 0.1 m in bands 0, 0, 3 and 9 (one above)
+        let y = [0.05, 0.0, 0.35, 1.2];
+        let state = State {
+            position: y.iter().map(|&y| Vector2::new(0.5, y)).collect(),
+            velocity: vec![Vector2::zeros(); 4],
+            piston: 1.0,
+            time: 0.0,
+        };
+        let disc = std::f64::consts::PI * 0.01 / 4.0;
+        let profile = area_fraction_profile(&state, &[0.1; 4], 2.0);
+        let band = |k: usize| profile[k] * 2.0 * 0.1 / disc;
+        assert!((band(0) - 2.0).abs() < 1e-12 && (band(3) - 1.0).abs() < 1e-12);
+        assert!((band(9) - 1.0).abs() < 1e-12 && band(5) == 0.0);
+        let phi = 4.0 * disc / (2.0 * 1.0);
+        let mean = profile.iter().sum::<f64>() / AREA_FRACTION_BANDS as f64;
+        assert!((mean - phi).abs() < 1e-12 * phi);
     }
 }

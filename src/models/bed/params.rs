@@ -73,6 +73,11 @@ pub enum Neighbors {
     Cells,
     /// Verlet list of radius r_v ≥ r_c, rebuilt on half-skin displacement.
     Verlet,
+    /// The source's variant (de Paula 2025, §5.1, Eq. (5.4)): every pair in a list of radius
+    /// r_v is summed (r_c = r_v, no distance check), and the list is rebuilt only once some
+    /// disc has moved `rebuild_skin` since the last build (its Eq. (5.3)). Between builds it
+    /// keeps pairs that have left r_v and misses pairs that have entered it.
+    SourceVerlet,
 }
 
 /// How dry friction is integrated (see `integrator`).
@@ -83,6 +88,24 @@ pub enum FrictionScheme {
     SemiImplicit,
     /// Forward-Euler B5 (the small-step reference; Δt also limited by m v_t/(μ_d N)).
     Explicit,
+}
+
+/// φ_max of the source's mono-disperse protocol: with H0 = H, φ(H0 − ¾(H0 − H_f)) = 0.14 gives
+/// H_f = (A/(0.14 W) − H/4)/0.75, i.e. φ_max = 0.2307 at every N (docs/bed-protocol.md).
+pub const SOURCE_MONO_MAX_PACKING: f64 = 0.2307;
+
+/// How a cycle sets the piston heights H0 (start of compression) and H_f (maximum
+/// compression); docs/bed-protocol.md derives the source's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Heights {
+    /// The source's protocol: H0 = H, the top of the cell (every run of de Paula 2025,
+    /// Table A.1 compresses over H − H_f), H_f at `max_packing_fraction` [mono-disperse
+    /// default 0.2307, derived in docs/bed-protocol.md; bi-disperse 0.34].
+    Source,
+    /// H0 at `start_packing_fraction`, H_f at `max_packing_fraction` (the spec's first
+    /// defaults, 0.12 → 0.34).
+    PackingFractions,
 }
 
 /// A distance given in units of D_1 (the usual way) or as an absolute length.
@@ -162,10 +185,18 @@ pub struct BedParams {
     pub wall_strength: Option<f64>,
     /// Piston speed V_c during compression and expansion, m/s (5.63 mm/s).
     pub piston_speed: f64,
-    /// Packing fraction at the start of compression (piston at H0) (0.12).
+    /// How H0 and H_f are set (source: H0 = H; packing-fractions: from φ_start).
+    pub heights: Heights,
+    /// Packing fraction at the start of compression (piston at H0) with
+    /// `heights = packing-fractions` (0.12).
     pub start_packing_fraction: f64,
-    /// Packing fraction at maximum compression (piston at H_f) (0.34).
-    pub max_packing_fraction: f64,
+    /// Packing fraction at maximum compression (piston at H_f) [see
+    /// [`BedParams::max_packing_fraction`]].
+    pub max_packing_fraction: Option<f64>,
+    /// Piston force at which the compression stops instead of at H_f (which is then only the
+    /// lowest the piston may go), N [none; the experiments de Paula 2025, §4.2.2 cites
+    /// compressed to 110 N].
+    pub target_force: Option<f64>,
     /// Duration of the piston's exponentially slowing descent to H0, s (3 s).
     pub relaxation_time: f64,
     /// Decay time of that descent, s (0.5 s).
@@ -178,13 +209,18 @@ pub struct BedParams {
     pub initial_speed: f64,
     /// Neighbour strategy.
     pub neighbors: Neighbors,
-    /// Cut-off r_c in units of D_1 (7.13, the source's tuned value).
+    /// Cut-off r_c in units of D_1 (7.13: r_v − r_s of the source's runs; the source itself
+    /// summed its whole list, see `Neighbors::SourceVerlet`).
     pub cutoff: Reach,
-    /// Verlet list radius r_v in units of D_1 (8; the source tuned 11.26 for its code). r_v
+    /// Verlet list radius r_v in units of D_1 (8; the source used 11.26). With `verlet` r_v
     /// changes no result, only the speed: the pairs inside r_c are the same and are summed in
-    /// the same order. A thinner skin means a shorter pair loop and more frequent rebuilds;
+    /// the same order; with `source-verlet` it is the radius of the sums. A thinner skin means a shorter pair loop and more frequent rebuilds;
     /// 8 D was the faster of 8, 9 and 11.26 at N = 10⁴ (README, bed benchmark).
     pub list_radius: Reach,
+    /// Skin r_s of the source's Verlet variant in units of D_1 (4.13, de Paula 2025, §5.1: the
+    /// distance at which the pair force equals a disc's weight): its list is rebuilt when some
+    /// disc has moved r_s since the last build.
+    pub rebuild_skin: Reach,
     /// Multiple time stepping: pairs beyond `near_cutoff` are summed every this many steps and
     /// held in between (1: every pair every step, the default; needs Verlet lists).
     pub far_field_interval: usize,
@@ -241,8 +277,10 @@ impl BedParams {
             wall_law: WallLaw::Empirical,
             wall_strength: None,
             piston_speed: 5.63e-3,
+            heights: Heights::Source,
             start_packing_fraction: 0.12,
-            max_packing_fraction: 0.34,
+            max_packing_fraction: None,
+            target_force: None,
             relaxation_time: 3.0,
             piston_decay_time: 0.5,
             settle_time: 1.0,
@@ -251,6 +289,7 @@ impl BedParams {
             neighbors: Neighbors::Verlet,
             cutoff: Reach::Diameters(7.13),
             list_radius: Reach::Diameters(8.0),
+            rebuild_skin: Reach::Diameters(4.13),
             far_field_interval: 1,
             near_cutoff: Reach::Diameters(3.0),
             time_step_factor: 0.2,
@@ -349,6 +388,18 @@ impl BedParams {
 
     fn disc_volume(&self, d: f64) -> f64 {
         std::f64::consts::PI * d * d * self.thickness / 4.0
+    }
+
+    /// φ at maximum compression: the given value, else 0.2307 for the mono-disperse preset with
+    /// `heights = source` (docs/bed-protocol.md: φ ≈ 0.14 at 3/4 of the stroke from H0 = H,
+    /// de Paula 2025, Figs. 3.9–3.10) and 0.34 otherwise (its §4.3 and Table A.1: H_r = 14 D1).
+    pub fn max_packing_fraction(&self) -> f64 {
+        let source_mono = self.heights == Heights::Source && self.preset == Preset::Mono;
+        self.max_packing_fraction.unwrap_or(if source_mono {
+            SOURCE_MONO_MAX_PACKING
+        } else {
+            0.34
+        })
     }
 
     /// Wall strength M_w of the empirical law (B2), A·m^1.5.

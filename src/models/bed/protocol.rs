@@ -7,7 +7,10 @@ use std::time::Instant;
 
 use super::forces::ForceField;
 use super::integrator::{step, time_step, Kick};
-use super::observables::{mean_distance, min_piston_distance, min_wall_distance, Snapshot};
+use super::observables::{
+    area_fraction_profile, mean_distance, min_piston_distance, min_wall_distance, Snapshot,
+    AREA_FRACTION_SERIES,
+};
 use super::params::BedParams;
 use super::state::{species_of, Geometry, Particles, State};
 use super::{BedOutcome, Series};
@@ -101,9 +104,23 @@ impl<'a> Simulation<'a> {
         piston: &dyn Fn(f64) -> f64,
         each: &mut dyn FnMut(&Self, f64),
     ) -> Result<(), String> {
+        self.advance_until(duration, damped, piston, each, &|_| false)
+            .map(|_| ())
+    }
+
+    /// [`Self::advance`] that ends early, after the first step at which `stop` holds; returns
+    /// the time advanced, s.
+    pub fn advance_until(
+        &mut self,
+        duration: f64,
+        damped: bool,
+        piston: &dyn Fn(f64) -> f64,
+        each: &mut dyn FnMut(&Self, f64),
+        stop: &dyn Fn(&Self) -> bool,
+    ) -> Result<f64, String> {
         let kick = Kick::of(self.params, damped);
         let (start, end) = (self.state.time, self.state.time + duration);
-        while end - self.state.time > 1e-12 * end.max(1.0) {
+        while end - self.state.time > 1e-12 * end.max(1.0) && !stop(self) {
             let dt = self.time_step(&kick).min(end - self.state.time);
             let before = self.state.piston;
             let after = piston(self.state.time + dt - start);
@@ -118,7 +135,7 @@ impl<'a> Simulation<'a> {
             self.after_step()?;
             each(self, after - before);
         }
-        Ok(())
+        Ok(self.state.time - start)
     }
 
     /// The step the rule gives for the current forces.
@@ -226,6 +243,10 @@ impl<'a> Simulation<'a> {
             .map(|(v, m)| 0.5 * m * v.norm_squared())
             .sum();
         self.series.push("kinetic_energy", t, ke);
+        let profile = area_fraction_profile(s, &self.particles.diameter, self.geometry.width);
+        for (name, phi) in AREA_FRACTION_SERIES.iter().zip(profile) {
+            self.series.push(name, t, phi);
+        }
         (self.progress)(t);
     }
 
@@ -338,13 +359,30 @@ pub fn cycle(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> {
         c.work -= 0.5 * (f + c.last_force) * dp;
         c.last_force = f;
     };
-    let travel = (h0 - hf) / v;
-    sim.advance(travel, false, &|t| (h0 - v * t).max(hf), &mut track)?;
+    // with a target force the compression ends at the first step where F reaches it
+    let target = p.target_force.unwrap_or(f64::INFINITY);
+    let reached = |s: &Simulation| s.field.piston_force() >= target;
+    let travel = sim.advance_until(
+        (h0 - hf) / v,
+        false,
+        &|t| (h0 - v * t).max(hf),
+        &mut track,
+        &reached,
+    )?;
+    if !reached(sim) && p.target_force.is_some() {
+        return Err(format!(
+            "target_force: {target} N not reached before H_f = {hf:.4} m (piston force {:.3} N \
+             there): raise max_packing_fraction or lower the target",
+            sim.field.piston_force()
+        ));
+    }
+    let bottom = sim.state.piston;
+    out.stroke = h0 - bottom;
     sim.record();
     out.force_at_max_compression = Some(sim.field.piston_force());
     out.record_structure(1, &sim.state.position);
     sim.moment("max-compression", out);
-    sim.advance(travel, false, &|t| (hf + v * t).min(h0), &mut track)?;
+    sim.advance(travel, false, &|t| (bottom + v * t).min(h0), &mut track)?;
     if p.final_rest > 0.0 {
         sim.advance(p.final_rest, false, &|_| h0, &mut |_, _| {})?;
     }

@@ -6,7 +6,7 @@ use nalgebra::Vector2;
 use rand::RngExt;
 use rand_distr::StandardNormal;
 
-use super::params::{BedParams, TiltOrder};
+use super::params::{BedParams, Heights, TiltOrder};
 use crate::rng::{run_stream, Purpose};
 
 /// Per-particle constants, SI.
@@ -123,7 +123,7 @@ pub struct Geometry {
     pub width: f64,
     /// Height H (initial piston height).
     pub height: f64,
-    /// H0: piston height at the start of compression (φ_start).
+    /// H0: piston height at the start of compression (H, or at φ_start).
     pub start_height: f64,
     /// H_f: piston height at maximum compression (φ_max); for a bi-disperse bed this is
     /// [1 + R(p − 1)] H_r with R the realized small fraction.
@@ -139,8 +139,11 @@ impl Geometry {
         Self {
             width,
             height,
-            start_height: area / (params.start_packing_fraction * width),
-            final_height: area / (params.max_packing_fraction * width),
+            start_height: match params.heights {
+                Heights::Source => height,
+                Heights::PackingFractions => area / (params.start_packing_fraction * width),
+            },
+            final_height: area / (params.max_packing_fraction() * width),
         }
     }
 

@@ -5,7 +5,8 @@ use super::damper::{damper, REST_LIMIT};
 use std::path::Path;
 
 use super::params::{
-    BedParams, Friction, FrictionScheme, Neighbors, Preset, Reach, Species, TiltOrder, WallLaw,
+    BedParams, Friction, FrictionScheme, Heights, Neighbors, Preset, Reach, Species, TiltOrder,
+    WallLaw,
 };
 use super::protocol::{cycle, recorded};
 use super::report::cycle_figures;
@@ -314,24 +315,46 @@ static PARAMETERS: &[BedParam] = &[
             .aliases(&["velocity"]),
         piston_speed
     ),
+    choice_param!(
+        "heights" aliases &["protocol"],
+        "Piston heights: source (H0 = the cell height H, H_f at max_packing_fraction; \
+         docs/bed-protocol.md) or packing-fractions (H0 at start_packing_fraction)",
+        heights,
+        [
+            ("source", Heights::Source),
+            ("packing-fractions", Heights::PackingFractions)
+        ]
+    ),
     number_param!(
         ParamSpec::new(
             "start_packing_fraction",
             K::Number,
-            "Packing fraction at the start of compression (sets H0)"
+            "Packing fraction at the start of compression (sets H0 with heights = \
+             packing-fractions)"
         )
         .within(Bounds::UNIT_OPEN),
         start_packing_fraction
     ),
-    number_param!(
+    optional_param!(
         ParamSpec::new(
             "max_packing_fraction",
             K::Number,
             "Packing fraction at maximum compression (sets H_f)"
         )
         .within(Bounds::UNIT_OPEN)
-        .aliases(&["packing_fraction"]),
+        .aliases(&["packing_fraction"])
+        .derived("0.2307 mono with heights = source (docs/bed-protocol.md), else 0.34"),
         max_packing_fraction
+    ),
+    optional_param!(
+        ParamSpec::new(
+            "target_force",
+            K::Number,
+            "Piston force, N, at which the compression stops (H_f stays the lowest height)"
+        )
+        .within(POSITIVE)
+        .derived("none: compress to H_f"),
+        target_force
     ),
     number_param!(
         q(
@@ -380,12 +403,14 @@ static PARAMETERS: &[BedParam] = &[
     choice_param!(
         "neighbors",
         "Neighbour handling: exact (all pairs), cells (cut-off list every step), verlet (list \
-         radius r_v, cut-off r_c)",
+         radius r_v, cut-off r_c), source-verlet (the source's: every pair of the r_v list \
+         summed, rebuilt after a displacement of rebuild_skin)",
         neighbors,
         [
             ("exact", Neighbors::Exact),
             ("cells", Neighbors::Cells),
-            ("verlet", Neighbors::Verlet)
+            ("verlet", Neighbors::Verlet),
+            ("source-verlet", Neighbors::SourceVerlet)
         ]
     ),
     Param {
@@ -404,6 +429,17 @@ static PARAMETERS: &[BedParam] = &[
         get: |p| reach_value(p.list_radius),
         set: |_, p, v| {
             p.list_radius = reach_of(v);
+            Ok(())
+        },
+    },
+    Param {
+        spec: reach(
+            "rebuild_skin",
+            "Skin r_s of source-verlet: its list is rebuilt once a disc has moved r_s (source: 4.13)",
+        ),
+        get: |p| reach_value(p.rebuild_skin),
+        set: |_, p, v| {
+            p.rebuild_skin = reach_of(v);
             Ok(())
         },
     },
@@ -522,6 +558,46 @@ const SERIES: &[(&str, &str)] = &[
     ("mean_distance_D", "D̂ / ⟨D⟩"),
     ("min_piston_distance", "min particle–piston distance (m)"),
     ("kinetic_energy", "kinetic energy (J)"),
+    (
+        "area_fraction_band_0",
+        "local area fraction, band 1 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_1",
+        "local area fraction, band 2 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_2",
+        "local area fraction, band 3 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_3",
+        "local area fraction, band 4 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_4",
+        "local area fraction, band 5 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_5",
+        "local area fraction, band 6 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_6",
+        "local area fraction, band 7 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_7",
+        "local area fraction, band 8 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_8",
+        "local area fraction, band 9 of 10 from the floor",
+    ),
+    (
+        "area_fraction_band_9",
+        "local area fraction, band 10 of 10 from the floor",
+    ),
     ("piston_z", "damper piston height z (m)"),
     ("piston_displacement", "damper z − z_rest (m)"),
 ];

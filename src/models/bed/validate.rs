@@ -2,7 +2,7 @@
 //! in `study.rs`): every message names the fields, their values and what is allowed (bad input
 //! is exit code 2 at the command line).
 
-use super::params::{BedParams, Neighbors};
+use super::params::{BedParams, Heights, Neighbors};
 use super::state::{grid_spacing, Geometry};
 use crate::{Error, Result};
 
@@ -18,7 +18,7 @@ impl BedParams {
         }
         let d1 = self.reference_diameter();
         let (rc, rv) = (self.cutoff.diameters(d1), self.list_radius.diameters(d1));
-        if rv < rc {
+        if rv < rc && self.neighbors != Neighbors::SourceVerlet {
             return Err(Error::input(format!(
                 "cutoff {rc} D1 and list_radius {rv} D1: need r_c ≤ r_v"
             )));
@@ -73,7 +73,7 @@ impl BedParams {
 
     fn validate_packing(&self) -> Result<()> {
         let hexagonal = std::f64::consts::PI / (2.0 * 3f64.sqrt());
-        let (phi0, phi1) = (self.start_packing_fraction, self.max_packing_fraction);
+        let (phi0, phi1) = (self.start_packing_fraction, self.max_packing_fraction());
         if !(phi1 > 0.0 && phi1 < hexagonal) {
             return Err(bad(
                 "max_packing_fraction",
@@ -81,7 +81,8 @@ impl BedParams {
                 "need 0 < φ < 0.9069 (hexagonal close packing)",
             ));
         }
-        if !(phi0 > 0.0 && phi0 < phi1) {
+        let by_fraction = self.heights == Heights::PackingFractions;
+        if by_fraction && !(phi0 > 0.0 && phi0 < phi1) {
             return Err(Error::input(format!(
                 "start_packing_fraction: {phi0} is not allowed (need 0 < φ_start < \
                  max_packing_fraction = {phi1})"
@@ -104,12 +105,20 @@ impl BedParams {
                 spacing * 1e3
             )));
         }
-        if geometry.start_height >= h {
+        if by_fraction && geometry.start_height >= h {
             return Err(Error::input(format!(
                 "start_packing_fraction: {phi0} needs a start height {:.4} m above the cell \
                  height {h:.4} m (need a larger φ_start or a taller cell)",
                 geometry.start_height
             )));
+        }
+        if !by_fraction && geometry.final_height >= h {
+            return Err(bad(
+                "max_packing_fraction",
+                phi1,
+                "with heights = source the piston starts at the top of the cell and H_f must lie \
+                 below it: need a larger φ_max or a taller cell",
+            ));
         }
         if geometry.final_height < 2.0 * d_max {
             return Err(Error::input(format!(
