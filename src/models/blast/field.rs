@@ -81,6 +81,14 @@ impl Drag {
         }
     }
 
+    /// The drag coefficient of the quadratic form ½ C_D ρ_a A |v|² that gives this law's
+    /// drag at speed `speed` (m/s): C_D itself for quadratic and Chow, 24/Re for Stokes; NaN
+    /// without air.
+    pub fn effective_coefficient(&self, speed: f64) -> f64 {
+        let (kappa, n) = self.power_law(speed);
+        kappa * speed.powf(n - 2.0) / self.quadratic_factor
+    }
+
     /// Drag acceleration at velocity `v` relative to still air, m/s².
     pub fn acceleration(&self, v: &Vector3<f64>) -> Vector3<f64> {
         let speed = v.norm();
