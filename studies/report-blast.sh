@@ -81,7 +81,7 @@ cat <<EOF
 
 ## Interacting model at the source's density (§9, Figs. 8–9)
 
-N = $(m dense-contact parameters.particles %.0f), R_0 = 1 m, d/D = 0.05 (volume fraction 0.29), the source's §9 constants,
+N = $(m dense-contact parameters.particles %.0f), R_0 = 1 m, d/D = 0.05 (volume fraction $(awk -v n="$(m dense-contact parameters.particles %.0f)" 'BEGIN { printf "%.2f", n * 0.05^3 }'); the source's N = 2000 gives 0.25), its §9 constants,
 t = $(m dense-contact parameters.duration_s) s (the cost of the exact near-field sum limits the time; the
 gyration period is 63 ms):
 
