@@ -36,6 +36,7 @@ command line is in the script). Machine: 2 cores shared with other jobs while me
 | field for parity λ = 1 (Eq. (5.8)) at \|δv\| | formula only | $(m field-on parity_field_T) T (C_D = 0.5), $(m lambda-cd1 parity_field_T) T (C_D = 1) | field-on, lambda-cd1 | new output |
 | Stokes/quadratic ratio (Eqs. (4.14)–(4.15)) | 0.0004 / (R\|v\|) | 12 μ_f/(ρ_a C_D) = 3.53e-4 m²/s; at R = 0.05 m, \|δv\|: $(m field-on stokes_ratio_initial) | field-on | agrees (0.0004 is 3.5e-4 rounded); inertial regime |
 | turning radius R = v0 m/(qB) (Eq. (2.6)): B for R = 1 cm | B = v0 m/(qR) = 16.52 T | at 16.52 T the cloud's mean turning radius is $(m turning-1cm turning_radius_initial_m %.5f) m = $(ratio "$(m turning-1cm turning_radius_initial_m %.6g)" 0.01) R | turning-1cm $(cmd turning-1cm) | single particle exact (tests/blast_physics.rs); the cloud deviates by mean sin θ = π/4: its field for R is π/4 of Eq. (2.6)'s |
+| the same as inverse design: optimize B for a mean turning radius of 1 cm | Eq. (2.6): 16.52 T | $(jq -r '.optimum.field_T' "$dir/optimize-turning-radius/optimum.json" | xargs printf %.4g) ± $(jq -r '.uncertainty.field_T' "$dir/optimize-turning-radius/optimum.json" | xargs printf %.2g) T (π/4 · 16.52 = 12.97 T) | \`magopt optimize studies/quick/blast-optimize-turning-radius.toml\` | the cloud's answer is π/4 of the single-particle one |
 | "under one minute on a standard laptop" (§6.1, N = 2000, 1 s) | < 60 s | $(m field-on wall_time_s %.2f) s wall ($(m field-on steps %.0f) Boris steps of N = $n) | field-on | agrees |
 
 ## Long-time dynamics: decaying orbits to a stationary ellipsoid (Highlights, §3.2, Fig. 2)
@@ -52,6 +53,16 @@ for c in long-chow long-quadratic long-stokes light-chow light-quadratic light-s
   echo "| $c | $(m $c parameters.drag %s) | $(m $c terminal_time_s) | $(m $c kinetic_energy_J) | $(m $c semi_axis_along_B_m) / $(m $c semi_axis_across_B_m) | $(m $c spin_positive_Js) / $(m $c spin_negative_Js) |"
 done
 cat <<EOF
+
+Light spheres under Stokes drag (\`$(basename "$dir")/light-stokes/\`, series.parquet; the
+source's Fig. 6 shows the velocity components): the along-B semi-axis settles, the RMS
+velocity across B decays as the orbits shrink, and the positive and negative charges swirl
+in opposite senses while the swirl decays:
+
+![]($(basename "$dir")/light-stokes/plots/series_semi_axis_along_B.png)
+![]($(basename "$dir")/light-stokes/plots/series_speed_across_B.png)
+![]($(basename "$dir")/light-stokes/plots/series_spin_positive.png)
+![]($(basename "$dir")/light-stokes/plots/series_spin_negative.png)
 
 - **Stationary only with a linear low-speed drag.** Quadratic drag (constant C_D) never
   stops the envelope: v = v0/(K v0 t + 1) and r = ln(K v0 t + 1)/K (Eq. (4.11)) grow without
@@ -85,16 +96,16 @@ N = $(m dense-contact parameters.particles %.0f), R_0 = 1 m, d/D = 0.05 (volume 
 t = $(m dense-contact parameters.duration_s) s (the cost of the exact near-field sum limits the time; the
 gyration period is 63 ms):
 
-| case | interactions | near-field reading | aspect ratio | semi-axes along / across (m) | kinetic energy (J) | bonds | clusters / largest | wall (s) |
-|---|---|---|---|---|---|---|---|---|
+| case | interactions | near-field reading | t (s) | aspect ratio | semi-axes along / across (m) | kinetic energy (J) | bonds | clusters / largest | wall (s) |
+|---|---|---|---|---|---|---|---|---|---|
 EOF
-for c in dense-contact dense-bonds dense-nf-mass dense-nf-area dense-nf-volume dense-nf-charge dense-nf-charge-sign dense-nf-cutoff; do
+for c in dense-none dense-contact dense-bonds dense-nf-mass dense-nf-area dense-nf-volume dense-nf-charge dense-nf-charge-sign dense-nf-cutoff; do
   [ -f "$dir/$c.json" ] || continue
   reading=–
   if jq -e '.parameters.interactions | test("near-field|all")' "$dir/$c.json" > /dev/null; then
     reading="$(m $c parameters.near_field_basis %s), sign $(m $c parameters.near_field_sign %s), cut-off $(m $c parameters.near_field_cutoff_m %s) m"
   fi
-  echo "| $c | $(m $c parameters.interactions %s) | $reading | $(m $c aspect_ratio) | $(m $c semi_axis_along_B_m) / $(m $c semi_axis_across_B_m) | $(m $c kinetic_energy_J) | $(m $c bonds %.0f) | $(m $c clusters %.0f) / $(m $c largest_cluster %.0f) | $(m $c wall_time_s %.1f) |"
+  echo "| $c | $(m $c parameters.interactions %s) | $reading | $(m $c parameters.duration_s) | $(m $c aspect_ratio) | $(m $c semi_axis_along_B_m) / $(m $c semi_axis_across_B_m) | $(m $c kinetic_energy_J) | $(m $c bonds %.0f) | $(m $c clusters %.0f) / $(m $c largest_cluster %.0f) | $(m $c wall_time_s %.1f) |"
 done
 cat <<EOF
 
