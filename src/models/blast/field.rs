@@ -189,6 +189,19 @@ mod tests {
     }
 
     #[test]
+    fn effective_coefficient_is_cd_for_quadratic_laws_and_24_over_re_for_stokes() {
+        let mut p = BlastParams::source_example();
+        let speed = 1.65;
+        let re = 2.0 * p.radius * p.air_density * speed / p.air_viscosity;
+        let cd = |p: &BlastParams| Drag::new(p).effective_coefficient(speed);
+        assert!((cd(&p) - chow_drag_coefficient(re)).abs() < 1e-12);
+        p.drag = DragLaw::Quadratic;
+        assert!((cd(&p) - p.drag_coefficient).abs() < 1e-12);
+        p.drag = DragLaw::Stokes;
+        assert!((cd(&p) / (24.0 / re) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn boris_conserves_speed_without_electric_field() {
         let b = Vector3::new(1.0, 2.0, -3.0);
         let mut v = Vector3::new(0.3, -1.0, 2.0);
