@@ -99,7 +99,9 @@ gyration period is 63 ms):
 | case | interactions | near-field reading | t (s) | aspect ratio | semi-axes along / across (m) | kinetic energy (J) | bonds | clusters / largest | wall (s) |
 |---|---|---|---|---|---|---|---|---|---|
 EOF
-for c in dense-none dense-contact dense-bonds dense-nf-mass dense-nf-area dense-nf-volume dense-nf-charge dense-nf-charge-sign dense-nf-cutoff; do
+for c in dense-none dense-contact dense-bonds dense-nf-mass dense-nf-area dense-nf-volume \
+  dense-nf-charge dense-nf-charge-sign dense-nf-cutoff dense-none-1s dense-contact-1s \
+  dense-bonds-1s dense-nf-cutoff-1s; do
   [ -f "$dir/$c.json" ] || continue
   reading=–
   if jq -e '.parameters.interactions | test("near-field|all")' "$dir/$c.json" > /dev/null; then
@@ -109,13 +111,42 @@ for c in dense-none dense-contact dense-bonds dense-nf-mass dense-nf-area dense-
 done
 cat <<EOF
 
-- Contact alone (Fig. 8): "of minimal importance" — agrees: the blast is a homologous radial
-  expansion, neighbours separate, no pair bonds.
-- Near field (Fig. 9, "clumpy helix"): see the verdict per reading in results/blast/README.md.
-  The readings differ only by the scale w² of α (C8): mass 13.4 kg², area 9.9e-4 m⁴,
-  volume 2.7e-7 m⁶, charge 1343 C². The mass and charge readings pull the cloud together
-  far faster than it expands (kinetic energy rising tenfold and more); area and volume are
-  too weak to change the blast at all.
+Side views at t = 0.5 s and 1 s, and the largest cluster over time, of the cut-off reading
+(\`$(basename "$dir")/dense-nf-cutoff-1s/\`):
+
+![]($(basename "$dir")/dense-nf-cutoff-1s/snapshots/middle.png)
+![]($(basename "$dir")/dense-nf-cutoff-1s/snapshots/end.png)
+![]($(basename "$dir")/dense-nf-cutoff-1s/plots/series_largest_cluster.png)
+
+- **Contact alone (Fig. 8), "of minimal importance": agrees**, at the source's density and
+  over its 1 s: aspect ratio $(m dense-contact-1s aspect_ratio) with contact and $(m dense-bonds-1s aspect_ratio) with contact
+  and bonds against $(m dense-none-1s aspect_ratio) without interactions; no pair bonds. The blast is a
+  homologous radial expansion: neighbours separate ("the particles essentially follow one
+  another").
+- **Near field (Fig. 9), "agglomeration forming a clumpy helix"**, with the source's
+  ᾱ1 = 0.5, β1 = 1, ᾱ2 = 0.01, β2 = 2. The readings differ only by the scale w² of α (C8):
+  mass 13.4 kg², area 9.9e-4 m⁴, volume 2.7e-7 m⁶, charge 1343 C².
+  - mass, all pairs: **disagrees** — the collective 1/r pull collapses the cloud into one
+    bonded cluster (largest $(m dense-nf-mass largest_cluster %.0f), aspect ratio $(m dense-nf-mass aspect_ratio), kinetic energy $(m dense-nf-mass kinetic_energy_J) J
+    from the 10 kJ blast) within $(m dense-nf-mass parameters.duration_s) s;
+  - charge, all pairs: **disagrees** — α 100 times the mass one: a ball of $(m dense-nf-charge semi_axis_along_B_m) m
+    holding all particles after $(m dense-nf-charge parameters.duration_s) s;
+  - area and volume: **disagree** — too weak to change anything (kinetic energy
+    $(m dense-nf-area kinetic_energy_J) J and $(m dense-nf-volume kinetic_energy_J) J, no bonds);
+  - charge with the sign factor c_i c_j and half the charges negative: like pairs attract,
+    unlike ones repel, the collective pull cancels: $(m dense-nf-charge-sign clusters %.0f) clusters (largest
+    $(m dense-nf-charge-sign largest_cluster %.0f)), $(m dense-nf-charge-sign bonds %.0f) bonds at $(m dense-nf-charge-sign parameters.duration_s) s, kinetic energy $(m dense-nf-charge-sign kinetic_energy_J) J;
+  - mass with a 0.25 m cut-off: the collective pull is gone and only neighbours attract.
+    At $(m dense-nf-cutoff parameters.duration_s) s this is the source's "agglomeration": $(m dense-nf-cutoff clusters %.0f) clumps (largest $(m dense-nf-cutoff largest_cluster %.0f),
+    $(m dense-nf-cutoff bonds %.0f) bonds) in a cloud that still expands (semi-axes $(m dense-nf-cutoff semi_axis_along_B_m) / $(m dense-nf-cutoff semi_axis_across_B_m) m). But
+    the clumps bond into one network (largest cluster 1 600 at 0.1 s), which holds back the
+    motion along B: two sheets across B at 0.5 s that merge into one bonded disc by 1 s
+    ($(m dense-nf-cutoff-1s largest_cluster %.0f) particles, $(m dense-nf-cutoff-1s bonds %.0f) bonds, aspect ratio $(m dense-nf-cutoff-1s aspect_ratio), semi-axes $(m dense-nf-cutoff-1s semi_axis_along_B_m) / $(m dense-nf-cutoff-1s semi_axis_across_B_m) m) —
+    **disagrees** at 1 s. The source states no cut-off; this is a reading.
+  - **Verdict: no reading of Eq. (7.23) with the stated constants gives a clumpy helix at
+    1 s.** Clumps that survive need an attraction strong enough to bind neighbours but too
+    weak to bind the cloud (results/blast/README.md section 3: ᾱ1 ≈ 2e-3 mass-based), and
+    bonds that do not tie the clumps into one network.
 
 ## Initial packing (§9)
 

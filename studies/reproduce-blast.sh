@@ -62,6 +62,18 @@ dense_run dense-nf-charge 2ms --interactions all --near-field-basis charge
 dense_run dense-nf-charge-sign 10ms --interactions all --near-field-basis charge \
   --near-field-sign charge --negative-fraction 0.5
 dense_run dense-nf-cutoff $dense_t --interactions all --near-field-cutoff 0.25m
+# the cheap cases to the source's 1 s: no near field, contact, contact and bonds, and the
+# mass-based near field with a 0.25 m cut-off (neighbour lists instead of all pairs)
+for c in none contact bonds; do
+  case $c in none) what=none;; contact) what=contact;; bonds) what=$contact;; esac
+  run dense-$c-1s --particles $dense --energy "$(energy $dense)" --duration 1s --samples 20 \
+    --interactions $what
+done
+run dense-nf-cutoff-1s --particles $dense --energy "$(energy $dense)" --duration 1s \
+  --samples 20 --interactions all --near-field-cutoff 0.25m --out "$out/dense-nf-cutoff-1s"
+"$bin" plot "$out/dense-nf-cutoff-1s" > /dev/null
+# keep the tables, plots and side views; the particle files (megabytes) are not needed here
+find "$out" -path '*/snapshots/*' -type f ! -name '*.png' -delete
 # Eq. (2.6) as inverse design: the field for a mean turning radius of 1 cm
 "$bin" optimize studies/quick/blast-optimize-turning-radius.toml --out "$out/optimize-turning-radius" \
   > /dev/null
