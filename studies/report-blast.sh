@@ -92,9 +92,9 @@ in opposite senses while the swirl decays:
 
 ## Interacting model at the source's density (§9, Figs. 8–9)
 
-N = $(m dense-contact parameters.particles %.0f), R_0 = 1 m, d/D = 0.05 (volume fraction $(awk -v n="$(m dense-contact parameters.particles %.0f)" 'BEGIN { printf "%.2f", n * 0.05^3 }'); the source's N = 2000 gives 0.25), its §9 constants,
-t = $(m dense-contact parameters.duration_s) s (the cost of the exact near-field sum limits the time; the
-gyration period is 63 ms):
+N = $(m dense-contact parameters.particles %.0f), R_0 = 1 m, d/D = 0.05 (volume fraction $(awk -v n="$(m dense-contact parameters.particles %.0f)" 'BEGIN { printf "%.2f", n * 0.05^3 }'); the source's N = 2000: 0.25), its §9 constants;
+the time t of each run is in the table: the exact near-field sum limits the all-pairs runs
+to a fraction of the source's 1 s (the gyration period is 63 ms):
 
 | case | interactions | near-field reading | t (s) | aspect ratio | semi-axes along / across (m) | kinetic energy (J) | bonds | clusters / largest | wall (s) |
 |---|---|---|---|---|---|---|---|---|---|
@@ -133,8 +133,8 @@ Side views at t = 0.5 s and 1 s, and the largest cluster over time, of the cut-o
     holding all particles after $(m dense-nf-charge parameters.duration_s) s;
   - area and volume: **disagree** — too weak to change anything (kinetic energy
     $(m dense-nf-area kinetic_energy_J) J and $(m dense-nf-volume kinetic_energy_J) J, no bonds);
-  - charge with the sign factor c_i c_j and half the charges negative: like pairs attract,
-    unlike ones repel, the collective pull cancels: $(m dense-nf-charge-sign clusters %.0f) clusters (largest
+  - charge with the sign factor c_i c_j and half the charges negative (like pairs attract,
+    unlike ones repel): $(m dense-nf-charge-sign clusters %.0f) clusters (largest
     $(m dense-nf-charge-sign largest_cluster %.0f)), $(m dense-nf-charge-sign bonds %.0f) bonds at $(m dense-nf-charge-sign parameters.duration_s) s, kinetic energy $(m dense-nf-charge-sign kinetic_energy_J) J;
   - mass with a 0.25 m cut-off: the collective pull is gone and only neighbours attract.
     At $(m dense-nf-cutoff parameters.duration_s) s this is the source's "agglomeration": $(m dense-nf-cutoff clusters %.0f) clumps (largest $(m dense-nf-cutoff largest_cluster %.0f),

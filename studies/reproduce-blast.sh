@@ -56,10 +56,10 @@ for basis in mass area volume; do
   dense_run dense-nf-$basis $dense_t --interactions all --near-field-basis $basis
 done
 # the charge reading (α 100 times the mass one) collapses the cloud within ~2 ms into a ball
-# where every pair touches; beyond that the run costs hours, so it stops at 2 ms; with the
-# sign factor and mixed charges (N = 2000: over 10 minutes for 0.05 s) it stops at 10 ms
+# where every pair touches; beyond that the run costs hours, so it stops at 2 ms, and so
+# does the reading with the sign factor and mixed charges (N = 2000: 10 ms took over 15 min)
 dense_run dense-nf-charge 2ms --interactions all --near-field-basis charge
-dense_run dense-nf-charge-sign 10ms --interactions all --near-field-basis charge \
+dense_run dense-nf-charge-sign 2ms --interactions all --near-field-basis charge \
   --near-field-sign charge --negative-fraction 0.5
 dense_run dense-nf-cutoff $dense_t --interactions all --near-field-cutoff 0.25m
 # the cheap cases to the source's 1 s: no near field, contact, contact and bonds, and the
