@@ -81,6 +81,14 @@ impl Drag {
         }
     }
 
+    /// The drag coefficient of the quadratic form ½ C_D ρ_a A |v|² that gives this law's
+    /// drag at speed `speed` (m/s): C_D itself for quadratic and Chow, 24/Re for Stokes; NaN
+    /// without air.
+    pub fn effective_coefficient(&self, speed: f64) -> f64 {
+        let (kappa, n) = self.power_law(speed);
+        kappa * speed.powf(n - 2.0) / self.quadratic_factor
+    }
+
     /// Drag acceleration at velocity `v` relative to still air, m/s².
     pub fn acceleration(&self, v: &Vector3<f64>) -> Vector3<f64> {
         let speed = v.norm();
@@ -178,6 +186,19 @@ mod tests {
             }
             assert!((decayed_speed(s0, kappa, n, h) - s).abs() < 1e-5, "n = {n}");
         }
+    }
+
+    #[test]
+    fn effective_coefficient_is_cd_for_quadratic_laws_and_24_over_re_for_stokes() {
+        let mut p = BlastParams::source_example();
+        let speed = 1.65;
+        let re = 2.0 * p.radius * p.air_density * speed / p.air_viscosity;
+        let cd = |p: &BlastParams| Drag::new(p).effective_coefficient(speed);
+        assert!((cd(&p) - chow_drag_coefficient(re)).abs() < 1e-12);
+        p.drag = DragLaw::Quadratic;
+        assert!((cd(&p) - p.drag_coefficient).abs() < 1e-12);
+        p.drag = DragLaw::Stokes;
+        assert!((cd(&p) / (24.0 / re) - 1.0).abs() < 1e-12);
     }
 
     #[test]

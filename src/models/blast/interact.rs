@@ -152,20 +152,21 @@ impl Interactor {
         if self.tree.is_some() {
             return self.tree_forces[i];
         }
+        let q = &cloud.charge_per_mass;
+        let pair = |j: usize| {
+            self.law.sign_factor(q[i], q[j]) * self.law.near_field(ri, &cloud.positions[j])
+        };
         let mut sum = Vector3::zeros();
         match &self.near {
             None => {
-                for (j, rj) in cloud.positions.iter().enumerate() {
-                    if j != i {
-                        sum += self.law.near_field(ri, rj);
-                    }
+                for j in (0..cloud.len()).filter(|&j| j != i) {
+                    sum += pair(j);
                 }
             }
             Some((list, cutoff)) => {
-                for &j in list.of(i) {
-                    let rj = &cloud.positions[j as usize];
-                    if (rj - ri).norm_squared() < cutoff * cutoff {
-                        sum += self.law.near_field(ri, rj);
+                for j in list.of(i).iter().map(|&j| j as usize) {
+                    if (cloud.positions[j] - ri).norm_squared() < cutoff * cutoff {
+                        sum += pair(j);
                     }
                 }
             }

@@ -21,6 +21,7 @@ pub mod params;
 pub mod snapshot;
 pub mod study;
 pub mod switches;
+pub mod theory;
 pub mod trapezoid;
 pub mod tree;
 
@@ -31,8 +32,8 @@ use crate::output::snapshots::Recorder;
 use cloud::Cloud;
 use explicit::Explicit;
 use interact::Interactor;
-use observe::{clusters, kinetic_energy, Envelope};
-pub use params::{BlastParams, DragLaw, Integrator, Interactions};
+use observe::{clusters, kinetic_energy, Envelope, Motion};
+pub use params::{BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis};
 use trapezoid::{StepStats, Trapezoid};
 
 /// A cloud with its time and stepper.
@@ -171,6 +172,7 @@ impl Simulation {
             time: self.time,
             envelope,
             kinetic_energy: kinetic_energy(&self.cloud),
+            motion: Motion::of(&self.cloud, &self.params),
             bonds,
             clusters,
             largest_cluster,
@@ -187,6 +189,8 @@ pub struct Sample {
     pub envelope: Envelope,
     /// Kinetic energy, J.
     pub kinetic_energy: f64,
+    /// Swirl, velocity components, turning radius and force ratio.
+    pub motion: Motion,
     /// Bonded pairs.
     pub bonds: usize,
     /// Clusters of ≥ 2 touching or bonded particles (0 for the non-interacting model).
@@ -208,6 +212,9 @@ pub struct BlastOutcome {
     pub stats: StepStats,
     /// Wall-clock time of the integration, s.
     pub wall_time_s: f64,
+    /// First sample time at which the kinetic energy had fallen to `stop_energy_fraction`
+    /// of its initial value (the run stops there), s; None if not reached or not asked.
+    pub terminal_time: Option<f64>,
 }
 
 impl BlastOutcome {
@@ -215,6 +222,16 @@ impl BlastOutcome {
     pub fn last(&self) -> &Sample {
         self.samples.last().expect("t = 0 is always sampled")
     }
+}
+
+/// Whether the last sample is at rest in the sense of `stop_energy_fraction`: kinetic energy
+/// at most that fraction of the first sample's (never when the fraction is 0).
+fn at_rest(params: &BlastParams, samples: &[Sample]) -> bool {
+    let (Some(first), Some(last)) = (samples.first(), samples.last()) else {
+        return false;
+    };
+    params.stop_energy_fraction > 0.0
+        && last.kinetic_energy <= params.stop_energy_fraction * first.kinetic_energy
 }
 
 /// The moments every run with an output directory writes: start, middle and end.
@@ -261,6 +278,7 @@ pub fn run(
         cloud: Cloud::default(),
         stats: StepStats::default(),
         wall_time_s: 0.0,
+        terminal_time: None,
     };
     let axis = params.field_axis();
     let stride = recorder.as_ref().and_then(|r| r.every());
@@ -278,6 +296,9 @@ pub fn run(
         }
         if is_sample(t) {
             outcome.samples.push(sim.sample());
+            if at_rest(params, &outcome.samples) {
+                outcome.terminal_time = Some(t);
+            }
         }
         if let Some(r) = recorder.as_deref_mut() {
             let step = sim.stats().steps as u64;
@@ -289,6 +310,9 @@ pub fn run(
             }
         }
         progress(t / t_end);
+        if outcome.terminal_time.is_some() {
+            break;
+        }
     }
     if outcome.samples.is_empty() {
         outcome.samples.push(sim.sample());

@@ -6,6 +6,8 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::cloud::{centre_of_mass, Cloud};
+use super::field::{lorentz_acceleration, Drag};
+use super::params::BlastParams;
 use crate::neighbor::NeighborList;
 
 /// Shape of the cloud relative to the field axis.
@@ -52,6 +54,69 @@ impl Envelope {
             extent_along: extent_along + cloud.radius,
             extent_across: extent_across + cloud.radius,
             mean_radius: radius_sum / n,
+        }
+    }
+}
+
+/// How the cloud moves about the field axis (C15).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// Angular momentum about the axis through the centre of mass along B of the positive
+    /// charges, Σ m ((r − r_c) × v)·b̂, J·s (negative: clockwise seen from +B).
+    pub spin_positive: f64,
+    /// The same for the negative charges, J·s.
+    pub spin_negative: f64,
+    /// RMS velocity component along B, m/s.
+    pub speed_along: f64,
+    /// RMS velocity component across B, m/s.
+    pub speed_across: f64,
+    /// Mean turning radius |v⊥| / (|q̄| |B|) of the particles (C13), m; NaN without B.
+    pub turning_radius: f64,
+    /// Σ |Ψ^{e+m}| / Σ |Ψ^drag| over the particles (C11 for the cloud, with the run's drag
+    /// law); NaN at rest or without drag.
+    pub force_ratio: f64,
+}
+
+impl Motion {
+    /// The motion of `cloud` under the fields and drag of `params`.
+    pub fn of(cloud: &Cloud, params: &BlastParams) -> Self {
+        let axis = params.field_axis();
+        let (e, b) = (params.electric_field(), params.field());
+        let drag = Drag::new(params);
+        let centre = centre_of_mass(&cloud.positions);
+        let n = cloud.len().max(1) as f64;
+        let (mut spin, mut along2, mut across2, mut turning) = ([0.0; 2], 0.0, 0.0, 0.0);
+        let (mut lorentz, mut resist) = (0.0, 0.0);
+        for ((r, v), &qm) in cloud
+            .positions
+            .iter()
+            .zip(&cloud.velocities)
+            .zip(&cloud.charge_per_mass)
+        {
+            let l = cloud.mass * (r - centre).cross(v).dot(&axis);
+            spin[usize::from(qm < 0.0)] += l;
+            let along = v.dot(&axis);
+            let across = (v - along * axis).norm();
+            (along2, across2) = (along2 + along * along, across2 + across * across);
+            turning += across / (qm.abs() * b.norm());
+            lorentz += lorentz_acceleration(qm, &e, &b, v).norm();
+            resist += drag.acceleration(v).norm();
+        }
+        Self {
+            spin_positive: spin[0],
+            spin_negative: spin[1],
+            speed_along: (along2 / n).sqrt(),
+            speed_across: (across2 / n).sqrt(),
+            turning_radius: if b.norm() > 0.0 {
+                turning / n
+            } else {
+                f64::NAN
+            },
+            force_ratio: if resist > 0.0 {
+                lorentz / resist
+            } else {
+                f64::NAN
+            },
         }
     }
 }

@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
-use super::params::{BlastParams, ContactParams, Interactions, NearFieldParams};
+use super::params::{BlastParams, ContactParams, Interactions, NearFieldBasis, NearFieldParams};
 
 /// One particle's kinematic state as a pair force sees it.
 #[derive(Debug, Clone, Copy)]
@@ -33,8 +33,11 @@ pub struct PairLaw {
     pub stiffness: f64,
     /// Particle radius R, m.
     pub radius: f64,
-    /// α1 = ᾱ1 m², α2 = ᾱ2 m² (C8, mass-based).
+    /// α1 = ᾱ1 w², α2 = ᾱ2 w² of a like-signed pair, w the particle's weight of the near
+    /// field's basis (C8).
     pub alpha: (f64, f64),
+    /// Whether unlike charges flip the near field (the factor c_i c_j of C8).
+    pub charge_sign: bool,
     /// β1, β2.
     pub beta: (f64, f64),
 }
@@ -48,8 +51,9 @@ impl PairLaw {
         } else {
             c.stiffness
         };
-        let m2 = params.particle_mass().powi(2);
+        let w2 = near_field_weight(params).powi(2);
         let NearFieldParams {
+            charge_sign,
             attraction,
             attraction_exponent,
             repulsion,
@@ -61,7 +65,8 @@ impl PairLaw {
             contact: c.clone(),
             stiffness,
             radius: params.radius,
-            alpha: (attraction * m2, repulsion * m2),
+            alpha: (attraction * w2, repulsion * w2),
+            charge_sign,
             beta: (attraction_exponent, repulsion_exponent),
         }
     }
@@ -126,7 +131,19 @@ impl PairLaw {
         rel - rel.dot(n) * n
     }
 
-    /// Near-field force on i at r_i from j at r_j (C8): (α1 r^{−β1} − α2 r^{−β2}) n_ij, N.
+    /// The sign factor c_i c_j of the near field for charges per mass `qi`, `qj` (C8): −1 for
+    /// unlike charges when the law carries it, else 1.
+    #[inline]
+    pub fn sign_factor(&self, qi: f64, qj: f64) -> f64 {
+        if self.charge_sign && qi * qj < 0.0 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+
+    /// Near-field force on i at r_i from a like-signed j at r_j (C8):
+    /// (α1 r^{−β1} − α2 r^{−β2}) n_ij, N (times [`sign_factor`](Self::sign_factor) for j's sign).
     #[inline]
     pub fn near_field(&self, ri: &Vector3<f64>, rj: &Vector3<f64>) -> Vector3<f64> {
         let d = rj - ri;
@@ -149,6 +166,18 @@ impl PairLaw {
     pub fn crossover_distance(&self) -> Option<f64> {
         let r = (self.alpha.1 / self.alpha.0).powf(1.0 / (self.beta.1 - self.beta.0));
         r.is_finite().then_some(r).filter(|r| *r > 0.0)
+    }
+}
+
+/// The particle's weight w of the near-field basis (C8): mass (kg), surface area 4πR² (m²),
+/// volume 4/3 πR³ (m³) or charge magnitude |q/m| m (C).
+pub fn near_field_weight(params: &BlastParams) -> f64 {
+    let r = params.radius;
+    match params.near_field.basis {
+        NearFieldBasis::Mass => params.particle_mass(),
+        NearFieldBasis::Area => 4.0 * PI * r * r,
+        NearFieldBasis::Volume => 4.0 / 3.0 * PI * r * r * r,
+        NearFieldBasis::Charge => params.charge_per_mass.abs() * params.particle_mass(),
     }
 }
 

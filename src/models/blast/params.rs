@@ -77,9 +77,29 @@ pub struct ContactParams {
     pub bond_strain: f64,
 }
 
-/// Near-field law (C8), mass-based α_k = ᾱ_k m_i m_j.
+/// What the near-field coefficients scale with (C8, Zohdi 2016 Eq. (7.23) readings (a)–(d)):
+/// α_k = ᾱ_k w_i w_j with w the particle's mass, surface area, volume or charge magnitude.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NearFieldBasis {
+    /// w = m = ρ 4/3 π R³, kg (ᾱ in N·m^β/kg²).
+    Mass,
+    /// w = a = 4π R², m² (ᾱ in N·m^β/m⁴).
+    Area,
+    /// w = V = 4/3 π R³, m³ (ᾱ in N·m^β/m⁶).
+    Volume,
+    /// w = |q| = |q/m| m, C (ᾱ in N·m^β/C²).
+    Charge,
+}
+
+/// Near-field law (C8): α_k = ᾱ_k w_i w_j (times c_i c_j with the charge-sign factor).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NearFieldParams {
+    /// What α scales with (C8 readings (a)–(d)).
+    pub basis: NearFieldBasis,
+    /// Whether α carries the source's sign identifier c_i c_j (c = ±1 the charge sign), so
+    /// that the law flips for unlike charges (C8). Off: the spec's reading, the same α for
+    /// every pair.
+    pub charge_sign: bool,
     /// ᾱ1, N·m^{β1}/kg² (attraction).
     pub attraction: f64,
     /// β1.
@@ -164,6 +184,13 @@ pub struct BlastParams {
     pub step: StepParams,
     /// Wanted aspect ratio of the `shape_error` metric.
     pub target_aspect_ratio: f64,
+    /// Wanted turning radius of the `turning_radius_error` metric, m (Zohdi 2016 Eq. (2.6)).
+    pub target_turning_radius: f64,
+    /// Wanted equatorial radius (semi-axis across B) of `equatorial_error`, m.
+    pub target_equatorial_radius: f64,
+    /// Terminal-state stop: the run ends at the first sample where the kinetic energy is at
+    /// most this fraction of its initial value (0: run the whole duration, the time budget).
+    pub stop_energy_fraction: f64,
 }
 
 impl BlastParams {
@@ -207,6 +234,8 @@ impl BlastParams {
                 bond_strain: 0.05,
             },
             near_field: NearFieldParams {
+                basis: NearFieldBasis::Mass,
+                charge_sign: false,
                 attraction: 0.5,
                 attraction_exponent: 1.0,
                 repulsion: 0.01,
@@ -225,6 +254,9 @@ impl BlastParams {
                 dt_min: 1e-12,
             },
             target_aspect_ratio: 2.0,
+            target_turning_radius: 0.1,
+            target_equatorial_radius: 1.0,
+            stop_energy_fraction: 0.0,
         }
     }
 
@@ -288,6 +320,13 @@ impl BlastParams {
                 self.duration,
                 fewest_step,
                 self.duration / fewest_step
+            )));
+        }
+        if n.theta > 0.0 && n.charge_sign && self.negative_fraction > 0.0 {
+            return Err(Error::input(format!(
+                "near_field_theta {} with near_field_sign charge and negative_fraction {}: the \
+                 Barnes–Hut tree sums like charges only; use the exact sum (theta 0)",
+                n.theta, self.negative_fraction
             )));
         }
         if s.dt_initial > s.dt_max {

@@ -2,7 +2,9 @@
 
 use nalgebra::Vector3;
 
-use super::params::{BlastParams, DragLaw, Integrator, Interactions, MAX_SAMPLES};
+use super::field::Drag;
+use super::params::{BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis, MAX_SAMPLES};
+use super::theory::{stokes_ratio, turning_field, ChargedSphere};
 use super::{run, BlastOutcome};
 use crate::study::model::{
     Param, ParamKind as K, ParamSpec, RunContext, RunResult, RunSpan, RunStatus, StudyModel, Value,
@@ -359,6 +361,24 @@ static PARAMETERS: &[BlastParam] = &[
         .within(NON_NEGATIVE),
         near_field.repulsion_exponent
     ),
+    choice_param!(
+        "near_field_basis",
+        "What the near-field coefficients scale with (C8): mass, area (surface), volume, charge",
+        near_field.basis,
+        [
+            ("mass", NearFieldBasis::Mass),
+            ("area", NearFieldBasis::Area),
+            ("volume", NearFieldBasis::Volume),
+            ("charge", NearFieldBasis::Charge)
+        ]
+    ),
+    choice_param!(
+        "near_field_sign",
+        "Sign factor of the near field (C8): none (the spec: the same law for every pair) or \
+         charge (the source's c_i c_j: unlike charges flip the law)",
+        near_field.charge_sign,
+        [("none", false), ("charge", true)]
+    ),
     number_param!(
         q(
             "near_field_cutoff",
@@ -385,6 +405,35 @@ static PARAMETERS: &[BlastParam] = &[
         )
         .within(NON_NEGATIVE),
         target_aspect_ratio
+    ),
+    number_param!(
+        q(
+            "target_turning_radius",
+            D::Length,
+            "m",
+            "Wanted turning radius of the turning_radius_error metric (C13)"
+        )
+        .within(POSITIVE),
+        target_turning_radius
+    ),
+    number_param!(
+        q(
+            "target_equatorial_radius",
+            D::Length,
+            "m",
+            "Wanted equatorial radius (semi-axis across B) of the equatorial_error metric"
+        )
+        .within(NON_NEGATIVE),
+        target_equatorial_radius
+    ),
+    number_param!(
+        num(
+            "stop_energy_fraction",
+            "Stop at the first sample whose kinetic energy is at most this fraction of the \
+             initial one (0: run the whole duration)"
+        )
+        .within(Bounds::FRACTION),
+        stop_energy_fraction
     ),
 ];
 
@@ -423,6 +472,19 @@ const METRICS: &[&str] = &[
     "mean_iterations",
     "min_time_step_s",
     "max_time_step_s",
+    "terminal_time_s",
+    "equatorial_error",
+    "turning_radius_m",
+    "turning_radius_initial_m",
+    "turning_radius_error",
+    "turning_field_T",
+    "force_ratio_initial",
+    "force_ratio_end",
+    "force_ratio_bound_initial",
+    "parity_field_T",
+    "stokes_ratio_initial",
+    "spin_positive_Js",
+    "spin_negative_Js",
 ];
 
 /// Parses a direction: "x", "y", "z", "-x"… or "a,b,c" (normalized).
@@ -485,7 +547,15 @@ impl BlastModel {
             ),
             ("min_time_step_s", finite(stats.dt_min)),
             ("max_time_step_s", finite(stats.dt_max)),
+            ("terminal_time_s", outcome.terminal_time),
+            (
+                "equatorial_error",
+                finite((e.across - params.target_equatorial_radius).abs()),
+            ),
         ];
+        let metrics = metrics
+            .into_iter()
+            .chain(Self::paper_metrics(params, outcome));
         let series_of = |f: &dyn Fn(&super::Sample) -> f64| -> Vec<(f64, f64)> {
             outcome.samples.iter().map(|s| (s.time, f(s))).collect()
         };
@@ -504,6 +574,24 @@ impl BlastModel {
             ),
             ("mean_radius".into(), series_of(&|s| s.envelope.mean_radius)),
             ("kinetic_energy".into(), series_of(&|s| s.kinetic_energy)),
+            (
+                "spin_positive".into(),
+                series_of(&|s| s.motion.spin_positive),
+            ),
+            (
+                "spin_negative".into(),
+                series_of(&|s| s.motion.spin_negative),
+            ),
+            ("speed_along_B".into(), series_of(&|s| s.motion.speed_along)),
+            (
+                "speed_across_B".into(),
+                series_of(&|s| s.motion.speed_across),
+            ),
+            (
+                "turning_radius".into(),
+                series_of(&|s| s.motion.turning_radius),
+            ),
+            ("force_ratio".into(), series_of(&|s| s.motion.force_ratio)),
         ];
         if interacting {
             series.push(("bonds".into(), series_of(&|s| s.bonds as f64)));
@@ -528,13 +616,73 @@ impl BlastModel {
                 None => RunStatus::Ok,
             },
             notes: Vec::new(),
-            metrics: metrics
-                .into_iter()
-                .map(|(n, v)| (n.to_string(), v))
-                .collect(),
+            metrics: metrics.map(|(n, v)| (n.to_string(), v)).collect(),
             series,
             wall_time_s: outcome.wall_time_s,
         }
+    }
+}
+
+impl BlastModel {
+    /// The source's single-particle measures (C11–C13) and the swirl (C15): the blast speed
+    /// |δv| = √(2W/M) sets the bound λ, the field for parity and the Stokes ratio; the drag
+    /// coefficient of λ is the run's law at that speed (C_D for quadratic and Chow, 24/Re for
+    /// Stokes); the Stokes ratio uses the constant C_D as the source's Eq. (4.15) does.
+    fn paper_metrics(
+        params: &BlastParams,
+        outcome: &BlastOutcome,
+    ) -> Vec<(&'static str, Option<f64>)> {
+        let finite = |x: f64| Some(x).filter(|x| x.is_finite());
+        let (first, last) = (&outcome.samples[0].motion, &outcome.last().motion);
+        let mass = params.particle_mass() * params.particles as f64;
+        let speed = (2.0 * params.energy / mass).sqrt();
+        let sphere = ChargedSphere {
+            charge_per_mass: params.charge_per_mass,
+            density: params.density,
+            radius: params.radius,
+            drag_coefficient: Drag::new(params).effective_coefficient(speed),
+            fluid_density: params.air_density,
+        };
+        let stokes = stokes_ratio(
+            params.air_viscosity,
+            params.air_density,
+            params.drag_coefficient,
+            params.radius,
+            speed,
+        );
+        vec![
+            ("turning_radius_m", finite(last.turning_radius)),
+            ("turning_radius_initial_m", finite(first.turning_radius)),
+            (
+                "turning_radius_error",
+                finite((last.turning_radius - params.target_turning_radius).abs()),
+            ),
+            (
+                "turning_field_T",
+                finite(turning_field(
+                    speed,
+                    params.charge_per_mass,
+                    params.target_turning_radius,
+                )),
+            ),
+            ("force_ratio_initial", finite(first.force_ratio)),
+            ("force_ratio_end", finite(last.force_ratio)),
+            (
+                "force_ratio_bound_initial",
+                finite(sphere.force_ratio_bound(
+                    params.electric_strength.abs(),
+                    params.field_strength.abs(),
+                    speed,
+                )),
+            ),
+            (
+                "parity_field_T",
+                finite(sphere.parity_magnetic_field(speed)),
+            ),
+            ("stokes_ratio_initial", finite(stokes)),
+            ("spin_positive_Js", finite(last.spin_positive)),
+            ("spin_negative_Js", finite(last.spin_negative)),
+        ]
     }
 }
 
@@ -560,6 +708,18 @@ impl StudyModel for BlastModel {
             ("aspect_ratio", "aspect ratio along/across B"),
             ("mean_radius", "mean distance from centre (m)"),
             ("kinetic_energy", "kinetic energy (J)"),
+            (
+                "spin_positive",
+                "angular momentum about B, positive charges (J·s)",
+            ),
+            (
+                "spin_negative",
+                "angular momentum about B, negative charges (J·s)",
+            ),
+            ("speed_along_B", "RMS velocity along B (m/s)"),
+            ("speed_across_B", "RMS velocity across B (m/s)"),
+            ("turning_radius", "mean turning radius |v⊥|/(|q/m| B) (m)"),
+            ("force_ratio", "force ratio Σ|Lorentz| / Σ|drag|"),
             ("bonds", "bonded pairs"),
             ("largest_cluster", "largest cluster (particles)"),
         ]
