@@ -15,7 +15,7 @@ pub mod study;
 
 use serde::Serialize;
 
-pub use params::{AlignParams, MomentBranch, Numerics, PressureMode, RestMeasure};
+pub use params::{AlignParams, FrictionScheme, MomentBranch, Numerics, PressureMode, RestMeasure};
 
 /// Which implementation evaluates a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]

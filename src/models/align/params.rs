@@ -33,6 +33,17 @@ pub enum MomentBranch {
     Metastable,
 }
 
+/// How the Coulomb friction (A5) enters the velocities (spec align.md, A5; issue 12 item 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrictionScheme {
+    /// Regularized and solved implicitly with the velocities (the convex velocity problem).
+    Implicit,
+    /// The source's Eq. (8): the unregularized Coulomb force from the previous iterate's
+    /// relative velocity, applied as a fixed force (no implicit solve).
+    SourceExplicit,
+}
+
 /// Which statistic of the net forces the settling rest criterion compares with `rest_speed` ×
 /// the settling force (spec align.md, stage 3: "come to rest").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -60,6 +71,8 @@ pub struct Numerics {
     pub solver_tolerance: f64,
     /// Cap on Gauss–Seidel sweeps per velocity solve (reported when hit). 200.
     pub max_sweeps: usize,
+    /// How friction enters the velocities: implicit (default) or the source's explicit Eq. (8).
+    pub friction_scheme: FrictionScheme,
     /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
     /// cells; the result is the same at any thread count). 4000.
     pub parallel_from: usize,
@@ -87,6 +100,7 @@ impl Default for Numerics {
             friction_regularization: 1e-2,
             solver_tolerance: 1e-4,
             max_sweeps: 200,
+            friction_scheme: FrictionScheme::Implicit,
             parallel_from: 4000,
             settling_force: 1e-3,
             rest_speed: 1e-2,

@@ -7,7 +7,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::dem::{self, Packing};
 use super::{
-    run_ensemble, AlignOutcome, AlignParams, ModelKind, MomentBranch, PressureMode, Status,
+    run_ensemble, AlignOutcome, AlignParams, FrictionScheme, ModelKind, MomentBranch, PressureMode,
+    Status,
 };
 use crate::materials::MaterialDb;
 use crate::study::model::{
@@ -95,6 +96,16 @@ static PARAMETERS: &[AlignParam] = &[
         [
             ("global-minimum", MomentBranch::GlobalMinimum),
             ("metastable", MomentBranch::Metastable)
+        ]
+    ),
+    choice_param!(
+        "friction_scheme",
+        "How friction enters the velocities: implicit (regularized, solved with them) or \
+         source-explicit (the source's Eq. (8) from the previous iterate's velocities)",
+        params.numerics.friction_scheme,
+        [
+            ("implicit", FrictionScheme::Implicit),
+            ("source-explicit", FrictionScheme::SourceExplicit)
         ]
     ),
     Param {

@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 
 use super::contacts::{ContactLaw, ContactSet, Container};
+use super::explicit_friction::add_previous_iterate_friction;
 use super::integrator::{fastest_rotation, time_step, Heun};
 use super::loads::Loads;
 use super::observables::{check_overlaps, check_velocities, sticking_fraction, Record};
@@ -14,7 +15,7 @@ use super::snapshot::frame;
 use super::state::{LidState, State};
 use super::torque::Anisotropy;
 use super::velocity::{self, Lid, Schedule, SolverControl, Stage};
-use crate::models::align::params::{AlignParams, PressureMode};
+use crate::models::align::params::{AlignParams, FrictionScheme, PressureMode};
 use crate::models::align::AlignOutcome;
 use crate::neighbor::NeighborList;
 use crate::output::snapshots::Recorder;
@@ -42,6 +43,9 @@ pub struct Run<'a> {
     law: ContactLaw,
     loads: Loads,
     anisotropy: Anisotropy,
+    /// External force of the stage: the loads, plus the explicit friction in the source's
+    /// scheme.
+    force: Vec<Vector3<f64>>,
     torque: Vec<Vector3<f64>>,
     /// Friction regularization v_ε.
     slip_scale: f64,
@@ -85,6 +89,7 @@ impl<'a> Run<'a> {
             law: contact_law(params),
             loads: Loads::none(n),
             anisotropy: Anisotropy::new(params, packing),
+            force: vec![Vector3::zeros(); n],
             torque: vec![Vector3::zeros(); n],
             slip_scale: params.numerics.friction_regularization * surface_speed,
             control: SolverControl {
@@ -192,11 +197,31 @@ impl<'a> Run<'a> {
             &mut state.moment_sense,
             &mut self.torque,
         );
+        self.force.copy_from_slice(&self.loads.force);
+        let law = match self.params.numerics.friction_scheme {
+            FrictionScheme::Implicit => self.law,
+            FrictionScheme::SourceExplicit => {
+                let (force, torque) = (&mut self.force, &mut self.torque);
+                add_previous_iterate_friction(
+                    &self.contacts,
+                    &self.law,
+                    radius,
+                    &state.motion,
+                    force,
+                    torque,
+                );
+                ContactLaw {
+                    friction: 0.0,
+                    wall_friction: 0.0,
+                    ..self.law
+                }
+            }
+        };
         let stage = Stage {
             contacts: &self.contacts,
-            law: &self.law,
+            law: &law,
             radius,
-            force: &self.loads.force,
+            force: &self.force,
             torque: &self.torque,
             dt: self.heun.dt,
             slip_scale: self.slip_scale,
