@@ -80,7 +80,8 @@ mod tests {
         ];
         let (mut force, mut torque) = (vec![Vector3::zeros(); 2], vec![Vector3::zeros(); 2]);
         add_previous_iterate_friction(&contacts, &law, &radius, &motion, &mut force, &mut torque);
-        let bound = 0.3 * contacts.of(0)[0].normal_force_at(0.01);
+        let c = contacts.of(0)[0];
+        let bound = 0.3 * c.normal_force_at(c.overlap);
         assert!((force[0] - Vector3::new(0.0, -bound, 0.0)).norm() < 1e-15 * bound);
         assert!((force[0] + force[1]).norm() < 1e-15 * bound);
         assert!((torque[0] - Vector3::new(0.0, 0.0, -bound)).norm() < 1e-15 * bound);
