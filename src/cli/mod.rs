@@ -7,6 +7,7 @@
 //! is still printed); 4 `collect` found runs missing (unless `--allow-partial`).
 
 mod align;
+mod align_diagnostics;
 mod analyze;
 mod bed;
 mod bench;
@@ -57,6 +58,9 @@ enum Command {
     Align(align::AlignArgs),
     /// Find the field that aligns the powder fastest (the headline study).
     OptimizeField(align::OptimizeArgs),
+    /// The source's single-particle figures for a material: ψ(θ), torque vs H, field of maximum
+    /// torque vs θ (Parquet tables and PNGs).
+    AlignDiagnostics(align_diagnostics::DiagnosticsArgs),
     /// One compression cycle of a bed of repelling magnets under a piston.
     Bed(bed::BedArgs),
     /// A free-falling piston onto a bed of repelling magnets (magnetic granular damper).
@@ -147,6 +151,7 @@ fn run(cli: Cli, matches: &ArgMatches) -> Result<i32> {
         Command::Align(args) => align::run_align(&db, matches, &args),
         Command::Blast(args) => blast::run_blast(matches, &args),
         Command::OptimizeField(args) => align::run_optimize(&db, matches, &args),
+        Command::AlignDiagnostics(args) => align_diagnostics::run(&db, &args),
         Command::Bed(args) => bed::run(matches, &args, false),
         Command::Damper(args) => bed::run(matches, &args, true),
         Command::Sweep(args) => study::sweep(db, &args),

@@ -6,6 +6,7 @@
 //! - [`dem`]: the 3D overdamped DEM with Hertz contacts, friction and pressure.
 
 pub mod dem;
+pub mod diagnostics;
 pub mod ensemble;
 pub mod params;
 pub mod report;
@@ -14,7 +15,7 @@ pub mod study;
 
 use serde::Serialize;
 
-pub use params::{AlignParams, Numerics, PressureMode, RestMeasure};
+pub use params::{AlignParams, FrictionScheme, MomentBranch, Numerics, PressureMode, RestMeasure};
 
 /// Which implementation evaluates a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -72,8 +73,11 @@ pub struct AlignOutcome {
     pub contacts: Option<usize>,
     /// Final bed height, m (DEM only).
     pub bed_height_m: Option<f64>,
-    /// Pressure force actually applied, N (DEM only).
+    /// Pressure force actually applied, N (DEM only): the sum of the loads on the particles, or
+    /// in `punch` mode the force the particles exert on the lid at the end of the run.
     pub applied_force_n: Option<f64>,
+    /// How far the punch's lid moved down during alignment, m (`punch` mode only).
+    pub lid_travel_m: Option<f64>,
     /// P L_x L_y, the force the punch should apply, N (DEM only).
     pub nominal_force_n: Option<f64>,
     /// Gauss–Seidel sweeps in all velocity solves.
@@ -120,6 +124,7 @@ impl AlignOutcome {
             contacts: None,
             bed_height_m: None,
             applied_force_n: None,
+            lid_travel_m: None,
             nominal_force_n: None,
             solver_sweeps: 0,
             unconverged_solves: 0,

@@ -10,10 +10,38 @@ use crate::{Error, Result};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum PressureMode {
+    /// A rigid flat lid on the bed, pushed down by P L_x L_y and overdamped like a particle
+    /// (drag γ), in contact with the particles like a wall: the die press itself.
+    Punch,
     /// Each particle with no sphere above it gets π R² P downward (Σ π R² ≈ L_x L_y).
     ExposedLayer,
     /// The source's literal rule: particles with centre z > 0.9 z_max get π R² P each.
     SourceLayer,
+}
+
+/// Which Stoner–Wohlfarth branch a particle's moment follows (spec align.md, "Magnetic moment").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum MomentBranch {
+    /// The global energy minimum, between the easy axis and the field: every moment is taken
+    /// to have switched toward H at once (exact for h above the astroid, h ≥ 1).
+    GlobalMinimum,
+    /// Hysteresis: each moment starts along its body axis n = q·ẑ, which is isotropic, so the
+    /// powder starts demagnetized (random ± along the axis, reproducible by the seed); a moment
+    /// pointing away from H stays on its metastable branch until the field exceeds the
+    /// switching field h_sw of its current angle, then switches for good.
+    Metastable,
+}
+
+/// How the Coulomb friction (A5) enters the velocities (spec align.md, A5; issue 12 item 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrictionScheme {
+    /// Regularized and solved implicitly with the velocities (the convex velocity problem).
+    Implicit,
+    /// The source's Eq. (8): the unregularized Coulomb force from the previous iterate's
+    /// relative velocity, applied as a fixed force (no implicit solve).
+    SourceExplicit,
 }
 
 /// Which statistic of the net forces the settling rest criterion compares with `rest_speed` ×
@@ -43,6 +71,8 @@ pub struct Numerics {
     pub solver_tolerance: f64,
     /// Cap on Gauss–Seidel sweeps per velocity solve (reported when hit). 200.
     pub max_sweeps: usize,
+    /// How friction enters the velocities: implicit (default) or the source's explicit Eq. (8).
+    pub friction_scheme: FrictionScheme,
     /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
     /// cells; the result is the same at any thread count). 4000.
     pub parallel_from: usize,
@@ -70,6 +100,7 @@ impl Default for Numerics {
             friction_regularization: 1e-2,
             solver_tolerance: 1e-4,
             max_sweeps: 200,
+            friction_scheme: FrictionScheme::Implicit,
             parallel_from: 4000,
             settling_force: 1e-3,
             rest_speed: 1e-2,
@@ -108,6 +139,8 @@ pub struct AlignParams {
     pub pressure: f64,
     /// How P is applied.
     pub pressure_mode: PressureMode,
+    /// Which Stoner–Wohlfarth branch the moments follow (global minimum).
+    pub moment_branch: MomentBranch,
     /// Coulomb friction coefficient μ between particles (0.2).
     pub friction: f64,
     /// Friction coefficient between particles and walls (default: μ).
@@ -137,6 +170,7 @@ impl AlignParams {
             field,
             pressure: 0.5 * 101_325.0,
             pressure_mode: PressureMode::ExposedLayer,
+            moment_branch: MomentBranch::GlobalMinimum,
             friction: 0.2,
             wall_friction: 0.2,
             particles: 1000,

@@ -47,6 +47,47 @@ pub fn equilibrium(sin_theta: f64, cos_theta: f64, h: f64) -> Equilibrium {
     }
 }
 
+/// The metastable equilibrium of a moment whose easy direction d points *away* from the field:
+/// the angle between −d and H is α ∈ [0, 90°], given by `(sin α, cos α)` (both ≥ 0), so d makes
+/// the angle φ = 180° − α with H. With ψ the moment's angle from d toward H, (A2) reads
+/// f(ψ) = h sin(α + ψ) − ½ sin 2ψ = 0, and the energy e(ψ) has a local minimum where f falls
+/// through zero. f(0) = h sin α ≥ 0; f'(0) = h cos α − 1 and f'(90°) = 1 − h sin α. For h < 1
+/// f first falls, then rises to f(90°) = h cos α ≥ 0: the branch survives while f dips below
+/// zero, i.e. f(ψ*) < 0 at the turning point ψ* (f'(ψ*) = 0); the field at which it stops is the
+/// switching field h_sw(α) of the Stoner–Wohlfarth astroid (tested against
+/// (cos^⅔ α + sin^⅔ α)^−3/2). Returns None once the branch is gone (the moment has switched
+/// to the global-minimum branch near −d). The torque, K V sin 2ψ, turns d toward H.
+pub fn metastable_equilibrium(sin_alpha: f64, cos_alpha: f64, h: f64) -> Option<Equilibrium> {
+    let alpha = sin_alpha.atan2(cos_alpha);
+    let f = |psi: f64| h * (alpha + psi).sin() - 0.5 * (2.0 * psi).sin();
+    let slope = |psi: f64| h * (alpha + psi).cos() - (2.0 * psi).cos();
+    use std::f64::consts::FRAC_PI_2;
+    if slope(0.0) >= 0.0 || slope(FRAC_PI_2) <= 0.0 {
+        return None; // f rises from the start or falls to the end: no minimum below 90°
+    }
+    let turning = crate::numerics::roots::bisect(slope, 0.0, FRAC_PI_2, 1e-15);
+    if f(turning) >= 0.0 {
+        return None;
+    }
+    let psi = if f(0.0) == 0.0 {
+        0.0
+    } else {
+        let g = |psi: f64| (-f(psi), -slope(psi));
+        safeguarded_newton(g, 0.0, turning, 0.5 * turning)
+    };
+    Some(Equilibrium {
+        psi,
+        torque_factor: (2.0 * psi).sin(),
+    })
+}
+
+/// The switching field h_sw(α) = (cos^⅔ α + sin^⅔ α)^−3/2 of the Stoner–Wohlfarth astroid: the
+/// reduced field along a direction at α from the easy axis at which the moment's metastable
+/// branch (pointing away from the field) ceases to exist (½ at 45°, 1 at 0° and 90°).
+pub fn switching_field(alpha: f64) -> f64 {
+    (alpha.cos().abs().powf(2.0 / 3.0) + alpha.sin().abs().powf(2.0 / 3.0)).powf(-1.5)
+}
+
 /// Residual of (A2) scaled by max(1, h), the size of its largest term: the solver's accuracy
 /// measure (used by tests).
 pub fn scaled_residual(theta: f64, psi: f64, h: f64) -> f64 {
@@ -231,6 +272,61 @@ mod tests {
             );
             // at the peak the torque factor is 1 (ψ = 45°)
             assert!((torque(h_star.ln()) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    /// The metastable branch ends on the astroid: bisecting the field at which
+    /// `metastable_equilibrium` stops returning a solution reproduces h_sw(α), with
+    /// h_sw(45°) = ½ and h_sw(0°) = h_sw(90°) = 1.
+    #[test]
+    fn metastable_branch_ends_at_the_astroid_switching_field() {
+        let exists = |alpha: f64, h: f64| metastable_equilibrium(alpha.sin(), alpha.cos(), h);
+        let numeric_switching = |alpha: f64| {
+            let (mut lo, mut hi) = (0.0, 1.5);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if exists(alpha, mid).is_some() {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        assert!((numeric_switching(FRAC_PI_4) - 0.5).abs() < 1e-6);
+        assert!((numeric_switching(0.0) - 1.0).abs() < 1e-6);
+        assert!((numeric_switching(FRAC_PI_2) - 1.0).abs() < 1e-6);
+        for deg in 1..90 {
+            let alpha = (deg as f64).to_radians();
+            let h_sw = switching_field(alpha);
+            assert!(
+                (numeric_switching(alpha) / h_sw - 1.0).abs() < 1e-6,
+                "α={deg}°: {} vs astroid {h_sw}",
+                numeric_switching(alpha)
+            );
+        }
+        assert!((switching_field(FRAC_PI_4) - 0.5).abs() < 1e-15);
+    }
+
+    /// Below the switching field the metastable moment solves (A2) in the frame of d (angle
+    /// φ = 180° − α to the field) and is a minimum of the energy; at α = 90° it meets the
+    /// global-minimum branch (sin ψ = h).
+    #[test]
+    fn metastable_moment_is_a_stable_equilibrium() {
+        for deg in [0.0f64, 10.0, 30.0, 45.0, 60.0, 80.0, 89.0] {
+            let alpha = deg.to_radians();
+            for frac in [0.1, 0.5, 0.9, 0.99] {
+                let h = frac * switching_field(alpha);
+                let eq = metastable_equilibrium(alpha.sin(), alpha.cos(), h).unwrap();
+                let phi = std::f64::consts::PI - alpha;
+                assert!(scaled_residual(phi, eq.psi, h) < 1e-12, "α={deg} h={h}");
+                let curvature = h * (phi - eq.psi).cos() + (2.0 * eq.psi).cos();
+                assert!(curvature > 0.0, "α={deg} h={h}: not a minimum");
+            }
+        }
+        for h in [0.2, 0.7] {
+            let eq = metastable_equilibrium(1.0, 0.0, h).unwrap();
+            assert!((eq.psi.sin() - h).abs() < 1e-12);
         }
     }
 

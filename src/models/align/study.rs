@@ -6,7 +6,10 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::dem::{self, Packing};
-use super::{run_ensemble, AlignOutcome, AlignParams, ModelKind, PressureMode, Status};
+use super::{
+    run_ensemble, AlignOutcome, AlignParams, FrictionScheme, ModelKind, MomentBranch, PressureMode,
+    Status,
+};
 use crate::materials::MaterialDb;
 use crate::study::model::{
     Param, ParamKind as K, ParamSpec, Recorder, RunContext, RunResult, RunSpan, RunStatus,
@@ -101,12 +104,34 @@ static PARAMETERS: &[AlignParam] = &[
     ),
     choice_param!(
         "pressure_mode",
-        "How P is applied: exposed-layer (π R² P on every particle with nothing above it) or \
-         source-layer (the source's rule: centres above 0.9 z_max)",
+        "How P is applied: punch (a rigid lid pushed by P L_x L_y), exposed-layer (π R² P on \
+         every particle with nothing above it) or source-layer (the source's rule: centres \
+         above 0.9 z_max)",
         params.pressure_mode,
         [
+            ("punch", PressureMode::Punch),
             ("exposed-layer", PressureMode::ExposedLayer),
             ("source-layer", PressureMode::SourceLayer)
+        ]
+    ),
+    choice_param!(
+        "moment_branch",
+        "Stoner–Wohlfarth branch of the moments: global-minimum (all switched toward H) or \
+         metastable (a demagnetized start; a moment switches only above its h_sw; DEM only)",
+        params.moment_branch,
+        [
+            ("global-minimum", MomentBranch::GlobalMinimum),
+            ("metastable", MomentBranch::Metastable)
+        ]
+    ),
+    choice_param!(
+        "friction_scheme",
+        "How friction enters the velocities: implicit (regularized, solved with them) or \
+         source-explicit (the source's Eq. (8) from the previous iterate's velocities)",
+        params.numerics.friction_scheme,
+        [
+            ("implicit", FrictionScheme::Implicit),
+            ("source-explicit", FrictionScheme::SourceExplicit)
         ]
     ),
     Param {
@@ -225,6 +250,7 @@ const METRICS: &[&str] = &[
     "time_step_s",
     "bed_height_m",
     "nominal_force_N",
+    "lid_travel_m",
     "solver_sweeps",
     "unconverged_solves",
 ];
@@ -316,6 +342,13 @@ impl StudyModel for AlignModel {
     }
 
     fn validate(&self, setup: &AlignSetup) -> Result<()> {
+        if setup.model == ModelKind::Ensemble
+            && setup.params.moment_branch == MomentBranch::Metastable
+        {
+            return Err(crate::Error::input(
+                "moment_branch: metastable is not allowed with model = ensemble (it needs dem)",
+            ));
+        }
         setup.params.validate()
     }
 
@@ -363,6 +396,7 @@ impl StudyModel for AlignModel {
                 ("time_step_s".into(), Some(o.time_step_s)),
                 ("bed_height_m".into(), o.bed_height_m),
                 ("nominal_force_N".into(), o.nominal_force_n),
+                ("lid_travel_m".into(), o.lid_travel_m),
                 ("solver_sweeps".into(), Some(o.solver_sweeps as f64)),
                 (
                     "unconverged_solves".into(),

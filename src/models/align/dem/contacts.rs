@@ -12,8 +12,10 @@ use rayon::prelude::*;
 
 use crate::neighbor::NeighborList;
 
-/// Marks a wall partner.
+/// Marks a wall partner (side walls and floor, at rest).
 pub const WALL: u32 = u32::MAX;
+/// Marks the lid (the ceiling of the die: the punch, which may move along z).
+pub const LID: u32 = u32::MAX - 1;
 
 /// A rigid rectangular die [0, lx] × [0, ly] × [0, top] (reduced units); walls of the particle
 /// material.
@@ -23,14 +25,14 @@ pub struct Container {
     pub lx: f64,
     /// Side length along y.
     pub ly: f64,
-    /// Height of the ceiling, if any (None: open top).
+    /// Height of the ceiling (the punch's lid), if any (None: open top).
     pub top: Option<f64>,
 }
 
 /// One (possible) contact of a particle.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Contact {
-    /// Partner particle index, or `WALL`.
+    /// Partner particle index, `WALL` or `LID`.
     pub partner: u32,
     /// Unit normal from the particle toward the partner.
     pub normal: Vector3<f64>,
@@ -41,6 +43,11 @@ pub struct Contact {
 }
 
 impl Contact {
+    /// The partner particle's index, or None for a wall or the lid.
+    pub fn particle(&self) -> Option<usize> {
+        (self.partner < LID).then_some(self.partner as usize)
+    }
+
     /// Hertz normal force magnitude at overlap δ: k δ^{3/2} for δ > 0, else 0 (A4).
     pub fn normal_force_at(&self, overlap: f64) -> f64 {
         if overlap > 0.0 {
@@ -100,11 +107,11 @@ impl ContactLaw {
                 });
             }
         }
-        for (normal, gap) in wall_gaps(p, container) {
+        for (partner, normal, gap) in wall_gaps(p, container) {
             let overlap = r - gap;
             if overlap > -self.skin {
                 emit(Contact {
-                    partner: WALL,
+                    partner,
                     normal,
                     overlap,
                     hertz: self.hertz_prefactor(r, None),
@@ -115,7 +122,7 @@ impl ContactLaw {
 
     /// Coulomb coefficient μ of a contact (particle pair or wall).
     pub fn friction_of(&self, c: &Contact) -> f64 {
-        if c.partner == WALL {
+        if c.particle().is_none() {
             self.wall_friction
         } else {
             self.friction
@@ -199,16 +206,18 @@ impl ContactSet {
     }
 }
 
-/// Outward wall normals and centre-to-wall distances of a point in the container.
-fn wall_gaps(p: Vector3<f64>, c: &Container) -> impl Iterator<Item = (Vector3<f64>, f64)> {
+/// Partner marks, outward wall normals and centre-to-wall distances of a point in the container.
+fn wall_gaps(p: Vector3<f64>, c: &Container) -> impl Iterator<Item = (u32, Vector3<f64>, f64)> {
     let walls = [
-        (Vector3::new(-1.0, 0.0, 0.0), p.x),
-        (Vector3::new(1.0, 0.0, 0.0), c.lx - p.x),
-        (Vector3::new(0.0, -1.0, 0.0), p.y),
-        (Vector3::new(0.0, 1.0, 0.0), c.ly - p.y),
-        (Vector3::new(0.0, 0.0, -1.0), p.z),
+        (WALL, Vector3::new(-1.0, 0.0, 0.0), p.x),
+        (WALL, Vector3::new(1.0, 0.0, 0.0), c.lx - p.x),
+        (WALL, Vector3::new(0.0, -1.0, 0.0), p.y),
+        (WALL, Vector3::new(0.0, 1.0, 0.0), c.ly - p.y),
+        (WALL, Vector3::new(0.0, 0.0, -1.0), p.z),
     ];
-    let ceiling = c.top.map(|top| (Vector3::new(0.0, 0.0, 1.0), top - p.z));
+    let ceiling = c
+        .top
+        .map(|top| (LID, Vector3::new(0.0, 0.0, 1.0), top - p.z));
     walls.into_iter().chain(ceiling)
 }
 

@@ -62,14 +62,20 @@ impl Heun {
         self.advance(state, true);
     }
 
-    /// Largest distance any particle moves in dt at its predictor or corrector velocity.
+    /// Largest distance any particle (or the lid) moves in dt at its predictor or corrector
+    /// velocity.
     pub fn largest_move(&self, state: &State) -> f64 {
+        let lid_speed = [self.start.lid, state.lid]
+            .iter()
+            .flatten()
+            .map(|l| l.velocity.abs())
+            .fold(0.0, f64::max);
         self.start
             .motion
             .iter()
             .chain(&state.motion)
             .map(|m| m.v.norm())
-            .fold(0.0, f64::max)
+            .fold(lid_speed, f64::max)
             * self.dt
     }
 
@@ -84,6 +90,10 @@ impl Heun {
             state.position[i] = start.position[i] + dt * v;
             let q = UnitQuaternion::from_scaled_axis(dt * w) * start.orientation[i];
             state.orientation[i] = UnitQuaternion::new_normalize(q.into_inner());
+        }
+        if let (Some(a), Some(lid)) = (start.lid, state.lid.as_mut()) {
+            let b = if corrected { lid.velocity } else { a.velocity };
+            lid.height = a.height + dt * 0.5 * (a.velocity + b);
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The external loads of the alignment stage (spec align.md, "Pressure"): the die pressure on
 //! the loaded particles (exposed-layer or source-layer rule) and true gravity, in units of
-//! E R_av².
+//! E R_av². In `punch` mode no particle is loaded directly: the lid (`velocity::Lid`) carries
+//! P L_x L_y and passes it on through its contacts.
 
 use nalgebra::Vector3;
 
@@ -33,6 +34,7 @@ impl Loads {
         let loaded = match params.pressure_mode {
             PressureMode::ExposedLayer => exposed_particles(position, radius),
             PressureMode::SourceLayer => source_layer(position),
+            PressureMode::Punch => vec![false; position.len()],
         };
         self.applied = 0.0;
         for (i, f) in self.force.iter_mut().enumerate() {

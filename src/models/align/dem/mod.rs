@@ -5,13 +5,15 @@
 //! - [`state`]: positions, orientations and velocities, the evolving run state;
 //! - [`torque`] and [`loads`]: the anisotropy torque and the pressure and gravity loads;
 //! - [`contacts`] and [`velocity`]: the Hertz contacts and the implicit velocity problem
-//!   solved at every integrator stage;
+//!   solved at every integrator stage; [`explicit_friction`]: the source's explicit friction
+//!   (a switchable variant);
 //! - [`integrator`]: Heun stepping and the time step;
 //! - [`observables`]: A(t), τ_x, sticking fraction, contact count and the outcome;
 //! - [`snapshot`]: the state as a particle frame (easy axes, moments, cos θ, contacts);
 //! - `run`: the loop that calls them.
 
 pub mod contacts;
+pub mod explicit_friction;
 pub mod integrator;
 pub mod loads;
 pub mod observables;

@@ -4,8 +4,8 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::contacts::{ContactSet, WALL};
-use super::packing::{packing_fraction, Packing};
+use super::contacts::ContactSet;
+use super::packing::{bed_top, packing_fraction, Packing};
 use super::velocity::{Motion, SolveStats, Stage};
 use crate::models::align::params::AlignParams;
 use crate::models::align::{AlignOutcome, Status};
@@ -40,12 +40,8 @@ pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
     for (i, m) in motion.iter().enumerate() {
         for c in stage.contacts.of(i) {
             if stage.law.friction_of(c) > 0.0 && c.overlap > 0.0 {
-                let partner = if c.partner == WALL {
-                    Vector3::zeros()
-                } else {
-                    let j = c.partner as usize;
-                    motion[j].v - stage.radius[j] * motion[j].w.cross(&c.normal)
-                };
+                // the lid moves along its normal only: its speed adds no slip
+                let partner = stage.partner_velocity(c, 0.0, |j| motion[j]);
                 let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
                 let slip = rel - rel.dot(&c.normal) * c.normal;
                 loaded += 1;
@@ -62,11 +58,11 @@ pub fn touching(contacts: &ContactSet) -> usize {
     let all = contacts.all();
     let pairs = all
         .iter()
-        .filter(|c| c.overlap > 0.0 && c.partner != WALL)
+        .filter(|c| c.overlap > 0.0 && c.particle().is_some())
         .count();
     let walls = all
         .iter()
-        .filter(|c| c.overlap > 0.0 && c.partner == WALL)
+        .filter(|c| c.overlap > 0.0 && c.particle().is_none())
         .count();
     pairs / 2 + walls
 }
@@ -170,11 +166,7 @@ impl Record {
             None => Status::NotReached,
         };
         let radius = &packing.radius;
-        let top = position
-            .iter()
-            .zip(radius)
-            .map(|(p, r)| p.z + r)
-            .fold(0.0, f64::max);
+        let top = bed_top(position, radius);
         let c = &packing.container;
         AlignOutcome {
             status,
@@ -188,6 +180,7 @@ impl Record {
             contacts: Some(touching(contacts)),
             bed_height_m: Some(top * scales.length),
             applied_force_n: Some(applied_force * scales.force),
+            lid_travel_m: None,
             nominal_force_n: Some(params.pressure * c.lx * c.ly * scales.length.powi(2)),
             solver_sweeps: self.sweeps,
             unconverged_solves: self.unconverged,

@@ -154,16 +154,21 @@ impl Packing {
 /// Solid volume of spheres (radius, centre) over the volume of the die up to the highest
 /// sphere top.
 pub fn packing_fraction(radius: &[f64], position: &[Vector3<f64>], container: &Container) -> f64 {
-    let top = position
-        .iter()
-        .zip(radius)
-        .map(|(p, r)| p.z + r)
-        .fold(0.0, f64::max);
+    let top = bed_top(position, radius);
     let solid: f64 = radius
         .iter()
         .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
         .sum();
     solid / (container.lx * container.ly * top)
+}
+
+/// Height of the highest sphere top (centre z + radius).
+pub fn bed_top(position: &[Vector3<f64>], radius: &[f64]) -> f64 {
+    position
+        .iter()
+        .zip(radius)
+        .map(|(p, r)| p.z + r)
+        .fold(0.0, f64::max)
 }
 
 /// Net force on a particle, its summed contact stiffness and its largest overlap.

@@ -5,16 +5,17 @@
 
 use nalgebra::Vector3;
 
-use super::contacts::{ContactLaw, ContactSet};
+use super::contacts::{ContactLaw, ContactSet, Container};
+use super::explicit_friction::add_previous_iterate_friction;
 use super::integrator::{fastest_rotation, time_step, Heun};
 use super::loads::Loads;
 use super::observables::{check_overlaps, check_velocities, sticking_fraction, Record};
-use super::packing::Packing;
+use super::packing::{bed_top, Packing};
 use super::snapshot::frame;
-use super::state::State;
+use super::state::{LidState, State};
 use super::torque::Anisotropy;
-use super::velocity::{self, Schedule, SolverControl, Stage};
-use crate::models::align::params::AlignParams;
+use super::velocity::{self, Lid, Schedule, SolverControl, Stage};
+use crate::models::align::params::{AlignParams, FrictionScheme, PressureMode};
 use crate::models::align::AlignOutcome;
 use crate::neighbor::NeighborList;
 use crate::output::snapshots::Recorder;
@@ -42,10 +43,17 @@ pub struct Run<'a> {
     law: ContactLaw,
     loads: Loads,
     anisotropy: Anisotropy,
+    /// External force of the stage: the loads, plus the explicit friction in the source's
+    /// scheme.
+    force: Vec<Vector3<f64>>,
     torque: Vec<Vector3<f64>>,
     /// Friction regularization v_ε.
     slip_scale: f64,
     control: SolverControl,
+    /// The punch's lid (pressure mode `punch`), resting at first on the highest particle.
+    lid: Option<Lid>,
+    /// Upward force the particles exert on the lid in the latest velocity solve.
+    lid_force: f64,
 }
 
 impl<'a> Run<'a> {
@@ -54,7 +62,19 @@ impl<'a> Run<'a> {
         // v_ε and the solver tolerance are fractions of the fastest possible surface speed.
         let (omega_max, r_max) = fastest_rotation(params, packing);
         let surface_speed = omega_max * r_max;
-        let state = State::at_rest(packing);
+        let mut state = State::at_rest(packing);
+        let lid = (params.pressure_mode == PressureMode::Punch).then(|| {
+            state.lid = Some(LidState {
+                height: bed_top(&state.position, &packing.radius),
+                velocity: 0.0,
+            });
+            let scales = params.scales();
+            let c = &packing.container;
+            Lid {
+                drag: 1.0,
+                load: params.pressure / scales.stress() * c.lx * c.ly,
+            }
+        });
         let dt = time_step(params, packing);
         let n = packing.radius.len();
         Self {
@@ -69,12 +89,15 @@ impl<'a> Run<'a> {
             law: contact_law(params),
             loads: Loads::none(n),
             anisotropy: Anisotropy::new(params, packing),
+            force: vec![Vector3::zeros(); n],
             torque: vec![Vector3::zeros(); n],
             slip_scale: params.numerics.friction_regularization * surface_speed,
             control: SolverControl {
                 tolerance: params.numerics.solver_tolerance * surface_speed,
                 max_sweeps: params.numerics.max_sweeps,
             },
+            lid,
+            lid_force: 0.0,
         }
     }
 
@@ -114,9 +137,19 @@ impl<'a> Run<'a> {
         if let Some(r) = recorder {
             self.offer_frame(r, Some("end"));
         }
-        let (position, applied) = (&self.state.position, self.loads.applied);
-        self.record
-            .outcome(self.params, self.packing, position, &self.contacts, applied)
+        let (applied, travel) = match (self.lid, self.state.lid) {
+            (Some(_), Some(lid)) => {
+                let start = bed_top(&self.packing.position, &self.packing.radius);
+                (self.lid_force, Some(start - lid.height))
+            }
+            _ => (self.loads.applied, None),
+        };
+        let position = &self.state.position;
+        let mut outcome =
+            self.record
+                .outcome(self.params, self.packing, position, &self.contacts, applied);
+        outcome.lid_travel_m = travel.map(|t| t * self.params.scales().length);
+        outcome
     }
 
     /// One Heun step.
@@ -141,16 +174,15 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// The contacts of the current state.
+    /// The contacts of the current state (the lid, if any, as the die's ceiling).
     fn rebuild_contacts(&mut self) {
         let (position, packing) = (&self.state.position, self.packing);
-        self.contacts.rebuild(
-            position,
-            &packing.radius,
-            &self.list,
-            &packing.container,
-            &self.law,
-        );
+        let container = Container {
+            top: self.state.lid.map(|l| l.height),
+            ..packing.container
+        };
+        self.contacts
+            .rebuild(position, &packing.radius, &self.list, &container, &self.law);
     }
 
     /// Solves the velocity problem at the current state, warm-started from the last solve.
@@ -159,19 +191,55 @@ impl<'a> Run<'a> {
         self.rebuild_contacts();
         let radius = &self.packing.radius;
         check_overlaps(&self.contacts)?;
-        self.anisotropy
-            .apply(&self.state.orientation, &mut self.torque);
+        let state = &mut self.state;
+        self.anisotropy.apply(
+            &state.orientation,
+            &mut state.moment_sense,
+            &mut self.torque,
+        );
+        self.force.copy_from_slice(&self.loads.force);
+        let law = match self.params.numerics.friction_scheme {
+            FrictionScheme::Implicit => self.law,
+            FrictionScheme::SourceExplicit => {
+                let (force, torque) = (&mut self.force, &mut self.torque);
+                add_previous_iterate_friction(
+                    &self.contacts,
+                    &self.law,
+                    radius,
+                    &state.motion,
+                    force,
+                    torque,
+                );
+                ContactLaw {
+                    friction: 0.0,
+                    wall_friction: 0.0,
+                    ..self.law
+                }
+            }
+        };
         let stage = Stage {
             contacts: &self.contacts,
-            law: &self.law,
+            law: &law,
             radius,
-            force: &self.loads.force,
+            force: &self.force,
             torque: &self.torque,
             dt: self.heun.dt,
             slip_scale: self.slip_scale,
+            lid: self.lid,
         };
         let motion = &mut self.state.motion;
-        let stats = velocity::solve(&stage, &self.schedule, motion, self.control);
+        let mut lid_velocity = self.state.lid.map_or(0.0, |l| l.velocity);
+        let stats = velocity::solve(
+            &stage,
+            &self.schedule,
+            motion,
+            &mut lid_velocity,
+            self.control,
+        );
+        if let Some(lid) = self.state.lid.as_mut() {
+            lid.velocity = lid_velocity;
+            self.lid_force = stage.lid_force(motion, lid_velocity);
+        }
         self.record.solved(stats, sticking_fraction(&stage, motion));
         check_velocities(motion)
     }

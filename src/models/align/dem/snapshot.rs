@@ -16,7 +16,7 @@
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::contacts::ContactSet;
-use super::packing::Packing;
+use super::packing::{bed_top, Packing};
 use super::state::State;
 use crate::models::align::params::AlignParams;
 use crate::models::align::stoner_wohlfarth::equilibrium;
@@ -85,13 +85,11 @@ fn moment_direction(axis: &Vector3<f64>, h: f64) -> Vector3<f64> {
 /// The die, up to its lid or to the highest particle surface, m.
 fn cell(packing: &Packing, state: &State, length: f64) -> Cell {
     let c = &packing.container;
-    let surface = state
-        .position
-        .iter()
-        .zip(&packing.radius)
-        .map(|(p, r)| p.z + r)
-        .fold(0.0, f64::max);
-    let top = c.top.unwrap_or(surface);
+    let top = state
+        .lid
+        .map(|l| l.height)
+        .or(c.top)
+        .unwrap_or_else(|| bed_top(&state.position, &packing.radius));
     Cell::aligned(Vector3::zeros(), Vector3::new(c.lx, c.ly, top) * length)
 }
 

@@ -1,10 +1,19 @@
 //! The evolving state of an alignment run (reduced units): particle centres, orientations and
-//! the velocities of the latest stage solve.
+//! the velocities of the latest stage solve, and the punch's lid if there is one.
 
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::packing::Packing;
 use super::velocity::Motion;
+
+/// Height and vertical velocity of the punch's lid (reduced units).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+pub struct LidState {
+    /// Height of the lid's underside above the floor.
+    pub height: f64,
+    /// Upward velocity of the latest stage solve.
+    pub velocity: f64,
+}
 
 /// Positions, orientations (easy axis n = q·ẑ) and velocities of every particle.
 #[derive(Debug, Default)]
@@ -15,6 +24,11 @@ pub struct State {
     pub orientation: Vec<UnitQuaternion<f64>>,
     /// Velocities of the latest stage solve; they warm-start the next one.
     pub motion: Vec<Motion>,
+    /// Sense s_i = ±1 of each moment along its body axis: the moment's easy direction is
+    /// s_i n_i (1 at the start; flipped when a metastable moment switches).
+    pub moment_sense: Vec<f64>,
+    /// The punch's lid (pressure mode `punch` only).
+    pub lid: Option<LidState>,
 }
 
 impl State {
@@ -24,6 +38,8 @@ impl State {
             position: packing.position.clone(),
             orientation: packing.orientation.clone(),
             motion: vec![Motion::default(); packing.radius.len()],
+            moment_sense: vec![1.0; packing.radius.len()],
+            lid: None,
         }
     }
 
@@ -32,5 +48,7 @@ impl State {
         self.position.clone_from(&other.position);
         self.orientation.clone_from(&other.orientation);
         self.motion.clone_from(&other.motion);
+        self.moment_sense.clone_from(&other.moment_sense);
+        self.lid = other.lid;
     }
 }

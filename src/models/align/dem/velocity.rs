@@ -22,7 +22,8 @@ use std::marker::PhantomData;
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
 
-use super::contacts::{Contact, ContactLaw, ContactSet, WALL};
+use super::contacts::{Contact, ContactLaw, ContactSet, LID};
+use crate::numerics::roots::bisect;
 
 /// Translational and angular velocity of one particle (reduced units).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -49,6 +50,90 @@ pub struct Stage<'a> {
     pub dt: f64,
     /// Friction regularization v_ε.
     pub slip_scale: f64,
+    /// The punch's lid, if the pressure is applied by one.
+    pub lid: Option<Lid>,
+}
+
+/// The punch's lid in the velocity problem: a rigid plate moving along z only, overdamped
+/// like a particle (drag γ, 1 in reduced units) and pushed down by the force P L_x L_y. Its
+/// term in Φ is ½ drag w² + load · w (w its upward velocity); its contacts are the particles'
+/// contacts with partner `LID`, whose normal is +z.
+#[derive(Debug, Clone, Copy)]
+pub struct Lid {
+    /// Drag coefficient of the lid (reduced units).
+    pub drag: f64,
+    /// Downward force P L_x L_y on the lid (reduced units).
+    pub load: f64,
+}
+
+impl Stage<'_> {
+    /// Velocity of contact c's partner surface at the contact: a particle's surface velocity,
+    /// zero for a wall, (0, 0, w) for the lid moving at `lid_velocity` w.
+    pub fn partner_velocity(
+        &self,
+        c: &Contact,
+        lid_velocity: f64,
+        motion_of: impl FnOnce(usize) -> Motion,
+    ) -> Vector3<f64> {
+        match c.particle() {
+            Some(j) => {
+                let m = motion_of(j);
+                m.v - self.radius[j] * m.w.cross(&c.normal)
+            }
+            None if c.partner == LID => Vector3::new(0.0, 0.0, lid_velocity),
+            None => Vector3::zeros(),
+        }
+    }
+
+    /// The lid's contacts: (particle, the contact) for every contact with partner `LID`.
+    fn lid_contacts(&self) -> Vec<(usize, Contact)> {
+        if self.lid.is_none() {
+            return Vec::new();
+        }
+        (0..self.radius.len())
+            .flat_map(|i| {
+                self.contacts
+                    .of(i)
+                    .iter()
+                    .filter(|c| c.partner == LID)
+                    .map(move |c| (i, *c))
+            })
+            .collect()
+    }
+
+    /// Upward force the particles exert on the lid at velocity w: the Hertz forces at the
+    /// overlaps at the end of the step (as in Φ), given the particles' motion.
+    pub fn lid_force(&self, motion: &[Motion], lid_velocity: f64) -> f64 {
+        lid_force_on(self.dt, &self.lid_contacts(), motion, lid_velocity)
+    }
+}
+
+fn lid_force_on(dt: f64, contacts: &[(usize, Contact)], motion: &[Motion], w: f64) -> f64 {
+    contacts
+        .iter()
+        .map(|(i, c)| c.normal_force_at(c.overlap + dt * (motion[*i].v.z - w)))
+        .sum()
+}
+
+/// The lid's velocity with every particle held: the root of drag w + load − F_up(w) = 0, which
+/// increases strictly in w (F_up falls as the lid rises), found by bisection between the free
+/// fall w = −load/drag (where it is ≤ 0) and the speed at which every contact opens (> 0).
+fn relax_lid(lid: &Lid, dt: f64, contacts: &[(usize, Contact)], motion: &[Motion]) -> f64 {
+    let free_fall = -lid.load / lid.drag;
+    let opening = contacts
+        .iter()
+        .map(|(i, c)| motion[*i].v.z + c.overlap / dt)
+        .fold(free_fall, f64::max);
+    let residual = |w: f64| lid.drag * w + lid.load - lid_force_on(dt, contacts, motion, w);
+    if residual(free_fall) >= 0.0 {
+        return free_fall;
+    }
+    bisect(
+        residual,
+        free_fall,
+        opening + free_fall.abs() + f64::MIN_POSITIVE,
+        1e-15,
+    )
 }
 
 /// Convergence control of the Gauss–Seidel sweeps.
@@ -70,35 +155,24 @@ pub struct SolveStats {
 }
 
 /// Solves the stage problem by block Gauss–Seidel in the order of `schedule`, starting from
-/// (and overwriting) `motion`.
+/// (and overwriting) `motion` and the lid's velocity `lid_velocity` (relaxed after each sweep
+/// of the particles; ignored without a lid).
 pub fn solve(
     stage: &Stage,
     schedule: &Schedule,
     motion: &mut [Motion],
+    lid_velocity: &mut f64,
     control: SolverControl,
 ) -> SolveStats {
     let mut stats = SolveStats::default();
-    let velocities = Velocities::new(motion);
+    let lid_contacts = stage.lid_contacts();
     while stats.sweeps < control.max_sweeps {
         stats.sweeps += 1;
-        let mut largest_change: f64 = 0.0;
-        for colour in &schedule.colours {
-            let sweep_cell = |cell: &Vec<u32>| {
-                let mut change: f64 = 0.0;
-                for &i in cell {
-                    // SAFETY: the colouring invariant of `Schedule`: while this colour's cells
-                    // are relaxed concurrently, particle i and its listed partners are written
-                    // by this task alone (same cell) or by no task (other colours).
-                    unsafe { change = change.max(relax(stage, &velocities, i as usize)) };
-                }
-                change
-            };
-            let change = if schedule.parallel {
-                colour.par_iter().map(sweep_cell).reduce(|| 0.0, f64::max)
-            } else {
-                colour.iter().map(sweep_cell).fold(0.0, f64::max)
-            };
-            largest_change = largest_change.max(change);
+        let w = *lid_velocity;
+        let mut largest_change = sweep(stage, schedule, motion, w);
+        if let Some(lid) = &stage.lid {
+            *lid_velocity = relax_lid(lid, stage.dt, &lid_contacts, motion);
+            largest_change = largest_change.max((*lid_velocity - w).abs());
         }
         if largest_change <= control.tolerance {
             stats.converged = true;
@@ -106,6 +180,32 @@ pub fn solve(
         }
     }
     stats
+}
+
+/// One Gauss–Seidel sweep over the particles with the lid moving at w; returns the largest
+/// change of a particle's velocity.
+fn sweep(stage: &Stage, schedule: &Schedule, motion: &mut [Motion], w: f64) -> f64 {
+    let velocities = Velocities::new(motion);
+    let mut largest_change: f64 = 0.0;
+    for colour in &schedule.colours {
+        let sweep_cell = |cell: &Vec<u32>| {
+            let mut change: f64 = 0.0;
+            for &i in cell {
+                // SAFETY: the colouring invariant of `Schedule`: while this colour's cells
+                // are relaxed concurrently, particle i and its listed partners are written
+                // by this task alone (same cell) or by no task (other colours).
+                unsafe { change = change.max(relax(stage, &velocities, i as usize, w)) };
+            }
+            change
+        };
+        let change = if schedule.parallel {
+            colour.par_iter().map(sweep_cell).reduce(|| 0.0, f64::max)
+        } else {
+            colour.iter().map(sweep_cell).fold(0.0, f64::max)
+        };
+        largest_change = largest_change.max(change);
+    }
+    largest_change
 }
 
 /// The Gauss–Seidel order: particles grouped by cubic cells of side ≥ the neighbour cut-off
@@ -195,23 +295,17 @@ impl<'a> Velocities<'a> {
     }
 }
 
-/// Relaxes particle i and returns the size of its change.
+/// Relaxes particle i (the lid moving at `lid_velocity`) and returns the size of its change.
 ///
 /// # Safety
 /// No other thread may write particle i or any of its listed partners, nor read particle i,
 /// meanwhile.
-unsafe fn relax(stage: &Stage, velocities: &Velocities, i: usize) -> f64 {
+unsafe fn relax(stage: &Stage, velocities: &Velocities, i: usize, lid_velocity: f64) -> f64 {
     // SAFETY: particle i is this task's alone (the caller's contract).
     let old = unsafe { velocities.read(i) };
     let partners = stage.contacts.of(i).iter().map(|c| {
-        if c.partner == WALL {
-            Vector3::zeros()
-        } else {
-            let j = c.partner as usize;
-            // SAFETY: j is a listed partner of i (the caller's contract).
-            let m = unsafe { velocities.read(j) };
-            m.v - stage.radius[j] * m.w.cross(&c.normal)
-        }
+        // SAFETY: j is a listed partner of i (the caller's contract).
+        stage.partner_velocity(c, lid_velocity, |j| unsafe { velocities.read(j) })
     });
     let new = solve_particle(stage, i, old, partners);
     // SAFETY: as for the read of `old`.
@@ -232,6 +326,13 @@ struct Local<'a> {
 }
 
 impl Local<'_> {
+    /// Whether no contact of the particle can carry friction (μ F_n = 0 at every contact).
+    fn frictionless(&self) -> bool {
+        self.contacts
+            .iter()
+            .all(|c| self.stage.law.friction_of(c) * c.normal_force_at(c.overlap) == 0.0)
+    }
+
     fn partner_velocity(&self, k: usize) -> Vector3<f64> {
         if k < self.partner.len() {
             self.partner[k]
@@ -349,7 +450,13 @@ fn solve_particle(
             local.overflow.push(w);
         }
     }
-    newton(&local, start)
+    let mut u = newton(&local, start);
+    if local.frictionless() {
+        // Φ separates: the rotation is r² ω = T exactly, whatever the contacts do (so with
+        // μ = 0 every particle turns as if alone, to round-off; spec align.md, "Studies").
+        u.w = local.torque / (local.radius * local.radius);
+    }
+    u
 }
 
 fn newton(local: &Local, start: Motion) -> Motion {
@@ -425,6 +532,7 @@ mod tests {
             torque: &torque,
             dt: 1.0,
             slip_scale: 1e-9,
+            lid: None,
         };
         let mut motion = vec![Motion::default(); 2];
         let schedule = Schedule::new(&positions, 3.0, usize::MAX);
@@ -432,6 +540,7 @@ mod tests {
             &stage,
             &schedule,
             &mut motion,
+            &mut 0.0,
             SolverControl {
                 tolerance: 1e-14,
                 max_sweeps: 500,
