@@ -109,10 +109,13 @@ fn a_grid_of_dampings_leaves_the_optimal_field_and_scales_the_time() {
     let text = format!(
         "name = \"g\"\nmodel = \"align\"\nreplicates = 1\n\
          [base]\nmodel = \"ensemble\"\nparticles = 200\n{OPTIMIZE}\
-         [sweep]\ndamping = [10.0, 20.0]\n"
+         [sweep]\ndamping = [10.0, 20.0]\nfield = [\"20kOe\", \"40kOe\"]\n"
     );
+    // the swept field is the free parameter: its values serve `magopt sweep` only, and the
+    // optimization runs at each damping
     let (_, out) = run(&dir, &text);
     let optima = read_parquet(&out.join("optima.parquet")).unwrap();
+    assert_eq!(optima.n_rows(), 2);
     let h = numbers(&optima, "optimum_field_kOe");
     let tau = numbers(&optima, "alignment_time_s");
     assert!((h[1] / h[0] - 1.0).abs() < 1e-9, "{h:?}");

@@ -267,7 +267,7 @@ pub fn optimize(db: MaterialDb, args: &OptimizeArgs) -> Result<i32> {
     let (text, model) = read_study(&args.study)?;
     let origin = args.study.display().to_string();
     with_model!(db, model.as_str(), origin, |m| {
-        let study = Study::parse(m, &text, &origin)?;
+        let study = Study::parse(m, &text, &origin)?.for_optimize();
         let shard = args.shard_wait()?;
         if study.objectives.is_some() {
             if args.shard.is_some() {

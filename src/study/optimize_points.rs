@@ -15,6 +15,7 @@ use super::model::{ParamSpec, StudyModel, Value};
 use super::optimize::{lock, optimize_at, Place, StudyOptimum};
 use super::optimize_shard::ShardWait;
 use super::records::{metric_unit, param_unit, value_column};
+use super::sensitivity_tables::push_descriptions;
 use super::spec::Study;
 use crate::numerics::stats::describe;
 use crate::output::table::{ColumnData as C, Table};
@@ -202,22 +203,13 @@ pub fn optimum_distribution_table<M: StudyModel>(
 ) -> Table {
     let q = quantities(study, points);
     let d: Vec<_> = q.iter().map(|q| describe(&q.values)).collect();
-    let opt = |x: f64| Some(x).filter(|x| x.is_finite());
     let mut t = Table::new()
         .with(
             "quantity",
             C::Str(q.iter().map(|q| q.name.clone()).collect()),
         )
-        .with("unit", C::Str(q.iter().map(|q| q.unit.clone()).collect()))
-        .with("count", C::I64(d.iter().map(|d| d.n as i64).collect()))
-        .with("mean", C::OptF64(d.iter().map(|d| opt(d.mean)).collect()))
-        .with("std", C::OptF64(d.iter().map(|d| opt(d.std)).collect()));
-    for (k, p) in ["q05", "q25", "q50", "q75", "q95"].iter().enumerate() {
-        t.push(
-            p,
-            C::OptF64(d.iter().map(|d| opt(d.quantiles[k])).collect()),
-        );
-    }
+        .with("unit", C::Str(q.iter().map(|q| q.unit.clone()).collect()));
+    push_descriptions(&mut t, &d);
     t.push(
         "replicate_se",
         C::OptF64(q.iter().map(|q| q.replicate_se).collect()),

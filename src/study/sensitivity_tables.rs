@@ -11,7 +11,7 @@
 use super::design::sensitivity::{morris_effects, replicate_variance, sobol_indices};
 use super::design_spec::{Design, DesignKind};
 use super::records::RunRecord;
-use crate::numerics::stats::describe;
+use crate::numerics::stats::{describe, Description};
 use crate::output::table::{ColumnData as C, Table};
 
 /// Confidence level of the Sobol' intervals.
@@ -162,19 +162,24 @@ pub fn distribution_table(metrics: &[String], records: &[RunRecord]) -> Table {
             describe(&v)
         })
         .collect();
+    let mut t = Table::new().with("metric", C::Str(metrics.to_vec()));
+    push_descriptions(&mut t, &d);
+    t
+}
+
+/// Appends the columns count, mean, std and q05–q95 of one description per row (null where
+/// a statistic is not finite).
+pub fn push_descriptions(t: &mut Table, d: &[Description]) {
     let opt = |x: f64| Some(x).filter(|x| x.is_finite());
-    let mut t = Table::new()
-        .with("metric", C::Str(metrics.to_vec()))
-        .with("count", C::I64(d.iter().map(|d| d.n as i64).collect()))
-        .with("mean", C::OptF64(d.iter().map(|d| opt(d.mean)).collect()))
-        .with("std", C::OptF64(d.iter().map(|d| opt(d.std)).collect()));
+    t.push("count", C::I64(d.iter().map(|d| d.n as i64).collect()));
+    t.push("mean", C::OptF64(d.iter().map(|d| opt(d.mean)).collect()));
+    t.push("std", C::OptF64(d.iter().map(|d| opt(d.std)).collect()));
     for (k, p) in ["q05", "q25", "q50", "q75", "q95"].iter().enumerate() {
         t.push(
             p,
             C::OptF64(d.iter().map(|d| opt(d.quantiles[k])).collect()),
         );
     }
-    t
 }
 
 /// Text of a column at row `i` (numbers with 3 significant digits, "–" for null).

@@ -280,11 +280,11 @@ impl<M: StudyModel> Study<M> {
         if let Some(free) = optimize.as_ref().and_then(|o| {
             o.free
                 .iter()
-                .find(|(s, ..)| axes.iter().any(|a| a.spec.name == s.name))
+                .find(|(s, ..)| design.is_some() && axes.iter().any(|a| a.spec.name == s.name))
         }) {
             return Err(at(Error::input(format!(
-                "optimize.parameters.{0}: {0} is also a swept or design parameter (the \
-                 optimization is run at every point of the grid or design: free it in one place)",
+                "optimize.parameters.{0}: {0} is also a design parameter (the optimization is \
+                 run at every design point: free it in one place)",
                 free.0.name
             ))));
         }
@@ -405,6 +405,26 @@ impl<M: StudyModel> Study<M> {
             snapshots: self.snapshots.clone(),
             text: self.text.clone(),
         }
+    }
+
+    /// The study as `magopt optimize` runs it: without the grid axes of its free parameters
+    /// (their values serve `magopt sweep` on the same file), so that the optimization runs at
+    /// every point of the remaining axes (none: once, from the base).
+    pub fn for_optimize(&self) -> Study<M> {
+        let free = |name: &str| {
+            self.optimize
+                .as_ref()
+                .is_some_and(|o| o.free.iter().any(|(s, ..)| s.name == name))
+        };
+        let mut study = self.at(self.base.clone());
+        study.design = self.design.clone();
+        study.axes = self
+            .axes
+            .iter()
+            .filter(|a| self.design.is_some() || !free(a.spec.name))
+            .cloned()
+            .collect();
+        study
     }
 
     /// Parameters at a grid point (checked).

@@ -444,6 +444,22 @@ mod tests {
         assert!(reached[2] <= 30, "evaluations to reach 1e-2: {reached:?}");
     }
 
+    /// The mean of r replicates of `value` with Gaussian noise σ, and its noise s²/r.
+    fn replicate_sample(value: f64, sigma: f64, r: usize, rng: &mut ChaCha8Rng) -> Sample {
+        let v: Vec<f64> = (0..r)
+            .map(|_| {
+                let z: f64 = StandardNormal.sample(rng);
+                value + sigma * z
+            })
+            .collect();
+        let m = v.iter().sum::<f64>() / r as f64;
+        let s2 = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (r - 1) as f64;
+        Sample {
+            mean: Some(m),
+            noise: s2 / r as f64,
+        }
+    }
+
     #[test]
     fn noisy_quadratic_lands_within_the_noise_implied_uncertainty() {
         // f(x) = 4 (x − 0.3)² + 1 on the unit interval, 4 replicates with σ = 0.05 each:
@@ -458,20 +474,7 @@ mod tests {
         let outcome = minimize::<String>(&settings, |batch| {
             Ok(batch
                 .iter()
-                .map(|u| {
-                    let v: Vec<f64> = (0..r)
-                        .map(|_| {
-                            let z: f64 = StandardNormal.sample(&mut rng);
-                            f(u[0]) + sigma * z
-                        })
-                        .collect();
-                    let m = v.iter().sum::<f64>() / r as f64;
-                    let s2 = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (r - 1) as f64;
-                    Sample {
-                        mean: Some(m),
-                        noise: s2 / r as f64,
-                    }
-                })
+                .map(|u| replicate_sample(f(u[0]), sigma, r, &mut rng))
                 .collect())
         })
         .unwrap();
@@ -507,20 +510,7 @@ mod tests {
         let outcome = minimize::<String>(&settings, |batch| {
             Ok(batch
                 .iter()
-                .map(|u| {
-                    let v: Vec<f64> = (0..r)
-                        .map(|_| {
-                            let z: f64 = StandardNormal.sample(&mut rng);
-                            f(u[0]) + sigma * z
-                        })
-                        .collect();
-                    let m = v.iter().sum::<f64>() / r as f64;
-                    let s2 = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (r - 1) as f64;
-                    Sample {
-                        mean: Some(m),
-                        noise: s2 / r as f64,
-                    }
-                })
+                .map(|u| replicate_sample(f(u[0]), sigma, r, &mut rng))
                 .collect())
         })
         .unwrap();
