@@ -47,30 +47,13 @@ pub fn add_previous_iterate_friction(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::align::dem::contacts::Container;
-    use crate::neighbor::NeighborList;
+    use crate::models::align::dem::contacts::pressed_pair;
 
     /// Two pressed spheres, the first sliding along +y: each gets the full Coulomb force μ F_n
     /// against its slip, equal and opposite, and the first the torque R e × F_t.
     #[test]
     fn coulomb_force_opposes_the_previous_slip_at_full_strength() {
-        let positions = vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(6.99, 5.0, 5.0)];
-        let radius = vec![1.0, 1.0];
-        let law = ContactLaw {
-            effective_modulus: 0.55,
-            friction: 0.3,
-            wall_friction: 0.0,
-            skin: 0.2,
-        };
-        let mut list = NeighborList::new(0.3);
-        list.build(&positions, &radius);
-        let container = Container {
-            lx: 20.0,
-            ly: 20.0,
-            top: None,
-        };
-        let mut contacts = ContactSet::default();
-        contacts.rebuild(&positions, &radius, &list, &container, &law);
+        let (_, radius, law, contacts) = pressed_pair(0.3);
         let motion = vec![
             Motion {
                 v: Vector3::new(0.0, 1e-9, 0.0),

@@ -495,30 +495,13 @@ fn newton(local: &Local, start: Motion) -> Motion {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::align::dem::contacts::{ContactLaw, Container};
-    use crate::neighbor::NeighborList;
+    use crate::models::align::dem::contacts::pressed_pair;
 
     /// Two spheres pressed together along x, each spun by an opposite-sign torque about z, one
     /// wall-free configuration: checks the friction torque opposes spin and forces balance.
     #[test]
     fn friction_opposes_spin_and_pair_forces_balance() {
-        let positions = vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(6.99, 5.0, 5.0)];
-        let radius = vec![1.0, 1.0];
-        let law = ContactLaw {
-            effective_modulus: 0.55,
-            friction: 0.5,
-            wall_friction: 0.0,
-            skin: 0.2,
-        };
-        let mut list = NeighborList::new(0.3);
-        list.build(&positions, &radius);
-        let container = Container {
-            lx: 20.0,
-            ly: 20.0,
-            top: None,
-        };
-        let mut contacts = ContactSet::default();
-        contacts.rebuild(&positions, &radius, &list, &container, &law);
+        let (positions, radius, law, contacts) = pressed_pair(0.5);
         let fn0 = contacts.of(0)[0].normal_force_at(0.01);
         // Same-sense spin about z: surfaces slide against each other at the contact.
         let torque = vec![Vector3::new(0.0, 0.0, 1e-3), Vector3::new(0.0, 0.0, 1e-3)];
