@@ -221,6 +221,30 @@ fn wall_gaps(p: Vector3<f64>, c: &Container) -> impl Iterator<Item = (u32, Vecto
     walls.into_iter().chain(ceiling)
 }
 
+/// Two unit spheres pressed together along x (overlap 0.01, no walls in reach) with friction
+/// μ: the positions, radii, law and contacts the unit tests of the friction solvers share.
+#[cfg(test)]
+pub(crate) fn pressed_pair(friction: f64) -> (Vec<Vector3<f64>>, Vec<f64>, ContactLaw, ContactSet) {
+    let positions = vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(6.99, 5.0, 5.0)];
+    let radius = vec![1.0, 1.0];
+    let law = ContactLaw {
+        effective_modulus: 0.55,
+        friction,
+        wall_friction: 0.0,
+        skin: 0.2,
+    };
+    let mut list = NeighborList::new(0.3);
+    list.build(&positions, &radius);
+    let container = Container {
+        lx: 20.0,
+        ly: 20.0,
+        top: None,
+    };
+    let mut contacts = ContactSet::default();
+    contacts.rebuild(&positions, &radius, &list, &container, &law);
+    (positions, radius, law, contacts)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -252,28 +276,4 @@ mod tests {
         assert!((contact.stiffness_at(delta) / numeric - 1.0).abs() < 1e-6);
         assert_eq!(contact.normal_force_at(-0.01), 0.0);
     }
-}
-
-/// Two unit spheres pressed together along x (overlap 0.01, no walls in reach) with friction
-/// μ: the positions, radii, law and contacts the unit tests of the friction solvers share.
-#[cfg(test)]
-pub(crate) fn pressed_pair(friction: f64) -> (Vec<Vector3<f64>>, Vec<f64>, ContactLaw, ContactSet) {
-    let positions = vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(6.99, 5.0, 5.0)];
-    let radius = vec![1.0, 1.0];
-    let law = ContactLaw {
-        effective_modulus: 0.55,
-        friction,
-        wall_friction: 0.0,
-        skin: 0.2,
-    };
-    let mut list = NeighborList::new(0.3);
-    list.build(&positions, &radius);
-    let container = Container {
-        lx: 20.0,
-        ly: 20.0,
-        top: None,
-    };
-    let mut contacts = ContactSet::default();
-    contacts.rebuild(&positions, &radius, &list, &container, &law);
-    (positions, radius, law, contacts)
 }

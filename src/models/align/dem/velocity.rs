@@ -496,6 +496,7 @@ fn newton(local: &Local, start: Motion) -> Motion {
 mod tests {
     use super::*;
     use crate::models::align::dem::contacts::pressed_pair;
+    use crate::neighbor::NeighborList;
 
     /// Two spheres pressed together along x, each spun by an opposite-sign torque about z, one
     /// wall-free configuration: checks the friction torque opposes spin and forces balance.
