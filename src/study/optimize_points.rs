@@ -90,6 +90,24 @@ fn optimum_column(points: &[PointOptimum], spec: &ParamSpec, k: usize) -> Vec<Op
         .collect()
 }
 
+/// The metric at each point's optimum (None without an optimum).
+fn value_at_optimum(points: &[PointOptimum]) -> Vec<Option<f64>> {
+    points.iter().map(|p| p.found().map(|o| o.value)).collect()
+}
+
+/// One free parameter's optimum standard error from the replicate optima, per point, in
+/// display units (None without an optimum or a finite error).
+fn uncertainty_column(points: &[PointOptimum], spec: &ParamSpec) -> Vec<Option<f64>> {
+    let shown = |x: f64| spec.display(&Value::Number(x)).as_number();
+    points
+        .iter()
+        .map(|p| {
+            let o = p.found()?.one_dimensional.as_ref()?;
+            Some(shown(o.x + o.uncertainty) - shown(o.x)).filter(|u| u.is_finite())
+        })
+        .collect()
+}
+
 /// The free parameters' names, specs and display columns of the optimum.
 fn free_specs<M: StudyModel>(study: &Study<M>) -> Vec<&'static ParamSpec> {
     study
@@ -121,18 +139,14 @@ pub fn optima_table<M: StudyModel>(study: &Study<M>, points: &[PointOptimum]) ->
         t.push_unit(&name, C::OptF64(optimum_column(points, s, k)), &unit);
     }
     let metric = study.optimize.as_ref().map_or("", |o| o.metric.as_str());
-    let value: Vec<Option<f64>> = points.iter().map(|p| p.found().map(|o| o.value)).collect();
-    t.push_unit(metric, C::OptF64(value), metric_unit(metric));
+    t.push_unit(
+        metric,
+        C::OptF64(value_at_optimum(points)),
+        metric_unit(metric),
+    );
     if let [s] = free[..] {
         let unit = param_unit(s).unwrap_or_else(|| "1".into());
-        let se: Vec<Option<f64>> = points
-            .iter()
-            .map(|p| {
-                let o = p.found()?.one_dimensional.as_ref()?;
-                let shown = |x: f64| s.display(&Value::Number(x)).as_number();
-                Some(shown(o.x + o.uncertainty) - shown(o.x)).filter(|u| u.is_finite())
-            })
-            .collect();
+        let se = uncertainty_column(points, s);
         t.push_unit(&format!("uncertainty_{}", s.column()), C::OptF64(se), &unit);
     }
     let evaluations = points
@@ -157,22 +171,21 @@ struct Quantity {
 
 fn quantities<M: StudyModel>(study: &Study<M>, points: &[PointOptimum]) -> Vec<Quantity> {
     let free = free_specs(study);
-    let t = optima_table(study, points);
-    let column = |name: &str| match t.column(name) {
-        Some(C::OptF64(v)) => v.iter().flatten().copied().collect(),
-        _ => Vec::new(),
-    };
-    let rms = |v: &[f64]| (!v.is_empty()).then(|| describe_rms(v));
+    let present = |v: Vec<Option<f64>>| v.into_iter().flatten().collect::<Vec<f64>>();
     let mut q: Vec<Quantity> = free
         .iter()
-        .map(|s| {
-            let name = format!("optimum_{}", s.column());
-            let se = column(&format!("uncertainty_{}", s.column()));
+        .enumerate()
+        .map(|(k, s)| {
+            // replicate optima give a standard error for one free parameter only
+            let se = match free.len() {
+                1 => present(uncertainty_column(points, s)),
+                _ => Vec::new(),
+            };
             Quantity {
-                values: column(&name),
-                name,
+                name: format!("optimum_{}", s.column()),
                 unit: param_unit(s).unwrap_or_else(|| "1".into()),
-                replicate_se: rms(&se),
+                values: present(optimum_column(points, s, k)),
+                replicate_se: (!se.is_empty()).then(|| describe_rms(&se)),
             }
         })
         .collect();
@@ -180,7 +193,7 @@ fn quantities<M: StudyModel>(study: &Study<M>, points: &[PointOptimum]) -> Vec<Q
     q.push(Quantity {
         name: metric.to_string(),
         unit: metric_unit(metric).to_string(),
-        values: column(metric),
+        values: present(value_at_optimum(points)),
         replicate_se: None,
     });
     q

@@ -460,24 +460,33 @@ mod tests {
         }
     }
 
-    #[test]
-    fn noisy_quadratic_lands_within_the_noise_implied_uncertainty() {
-        // f(x) = 4 (x − 0.3)² + 1 on the unit interval, 4 replicates with σ = 0.05 each:
-        // the mean of a point has noise σ/2 = 0.025.
-        let (sigma, r) = (0.05, 4);
-        let f = |x: f64| 4.0 * (x - 0.3).powi(2) + 1.0;
-        let mut rng = ChaCha8Rng::seed_from_u64(11);
+    /// The noisy test objective f(x) = 4 (x − 0.3)² + 1 on the unit interval (minimum 1).
+    fn f(x: f64) -> f64 {
+        4.0 * (x - 0.3).powi(2) + 1.0
+    }
+
+    /// Minimizes [`f`] with r replicates of noise σ per point (noise stream `noise_seed`).
+    fn noisy_quadratic(sigma: f64, r: usize, budget: usize, seed: u64, noise_seed: u64) -> Outcome {
+        let mut rng = ChaCha8Rng::seed_from_u64(noise_seed);
         let settings = Settings {
-            budget: 24,
-            ..Settings::defaults(1, 3)
+            budget,
+            ..Settings::defaults(1, seed)
         };
-        let outcome = minimize::<String>(&settings, |batch| {
+        minimize::<String>(&settings, |batch| {
             Ok(batch
                 .iter()
                 .map(|u| replicate_sample(f(u[0]), sigma, r, &mut rng))
                 .collect())
         })
-        .unwrap();
+        .unwrap()
+    }
+
+    #[test]
+    fn noisy_quadratic_lands_within_the_noise_implied_uncertainty() {
+        // f(x) = 4 (x − 0.3)² + 1 on the unit interval, 4 replicates with σ = 0.05 each:
+        // the mean of a point has noise σ/2 = 0.025.
+        let (sigma, r) = (0.05, 4);
+        let outcome = noisy_quadratic(sigma, r, 24, 3, 11);
         let x = outcome.x[0];
         let se = sigma / (r as f64).sqrt();
         eprintln!(
@@ -497,23 +506,10 @@ mod tests {
         assert!(outcome.region[0].0 <= x && x <= outcome.region[0].1);
     }
 
-    /// One seed of the two-replicate noisy quadratic f(x) = 4 (x − 0.3)² + 1 with σ = 0.1
-    /// per replicate: the reported interval and the true value f at the reported optimum.
+    /// One seed of the two-replicate noisy quadratic with σ = 0.1 per replicate: the
+    /// reported interval and the true value f at the reported optimum.
     fn noisy_quadratic_interval(seed: u64) -> ((f64, f64), f64) {
-        let (sigma, r) = (0.1, 2);
-        let f = |x: f64| 4.0 * (x - 0.3).powi(2) + 1.0;
-        let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
-        let settings = Settings {
-            budget: 16,
-            ..Settings::defaults(1, seed)
-        };
-        let outcome = minimize::<String>(&settings, |batch| {
-            Ok(batch
-                .iter()
-                .map(|u| replicate_sample(f(u[0]), sigma, r, &mut rng))
-                .collect())
-        })
-        .unwrap();
+        let outcome = noisy_quadratic(0.1, 2, 16, seed, 100 + seed);
         (outcome.interval, f(outcome.x[0]))
     }
 
