@@ -1,11 +1,13 @@
 //! Total force and moment on every particle of the interacting model: Lorentz and drag plus
 //! the pair forces, gathered per particle (each particle sums its partners in ascending
 //! order), so the result is bit-identical at any thread count. Contacts come from the shared
-//! Verlet list; the near field is summed over all pairs (exact) or within a cut-off.
+//! Verlet list; the near field is summed over all pairs (exact, by the kernel of
+//! [`AllPairs`] for the source's exponents), within a cut-off, or by a Barnes–Hut tree.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::all_pairs::AllPairs;
 use super::cloud::Cloud;
 use super::field::{lorentz_acceleration, Drag};
 use super::pairs::{contact_area, Body, PairLaw};
@@ -27,8 +29,10 @@ pub struct Interactor {
     near: Option<(NeighborList<3>, f64)>,
     /// Barnes–Hut tree and opening angle (θ > 0 only).
     tree: Option<(Octree, f64)>,
-    /// Near-field forces from the tree, per particle, N.
-    tree_forces: Vec<Vector3<f64>>,
+    /// The exact all-pairs kernel (no cut-off, no tree, β = (1, 2) only).
+    all_pairs: Option<AllPairs>,
+    /// Near-field forces from the tree or the all-pairs kernel, per particle, N.
+    near_forces: Vec<Vector3<f64>>,
     /// Bonded partners of each particle with the contact area at bonding, ascending.
     bonds: Vec<Vec<(u32, f64)>>,
     radii: Vec<f64>,
@@ -39,18 +43,22 @@ impl Interactor {
     /// The interactions of `params` for `n` particles.
     pub fn new(params: &BlastParams, n: usize) -> Self {
         let cutoff = params.near_field.cutoff;
-        let near = (params.interactions.near_field && cutoff > 0.0)
-            .then(|| (NeighborList::new(0.1 * cutoff), cutoff));
+        let near_field = params.interactions.near_field;
+        let near = (near_field && cutoff > 0.0).then(|| (NeighborList::new(0.1 * cutoff), cutoff));
+        let theta = params.near_field.theta;
+        let law = PairLaw::new(params);
+        let all_pairs = (near_field && cutoff <= 0.0 && theta <= 0.0 && AllPairs::applies(&law))
+            .then(AllPairs::default);
         Self {
-            law: PairLaw::new(params),
+            law,
             drag: Drag::new(params),
             field: params.field(),
             electric_field: params.electric_field(),
             contacts: NeighborList::new(0.5 * params.radius),
             near,
-            tree: (params.interactions.near_field && params.near_field.theta > 0.0)
-                .then(|| (Octree::default(), params.near_field.theta)),
-            tree_forces: vec![Vector3::zeros(); n],
+            tree: (near_field && theta > 0.0).then(|| (Octree::default(), theta)),
+            all_pairs,
+            near_forces: vec![Vector3::zeros(); n],
             bonds: vec![Vec::new(); n],
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
@@ -95,7 +103,11 @@ impl Interactor {
         if let Some((tree, theta)) = &mut self.tree {
             tree.build(&cloud.positions);
             let law = &self.law;
-            tree.sum_all(*theta, |a, b| law.near_field(a, b), &mut self.tree_forces);
+            tree.sum_all(*theta, |a, b| law.near_field(a, b), &mut self.near_forces);
+        }
+        if let Some(kernel) = &mut self.all_pairs {
+            let (x, q) = (&cloud.positions, &cloud.charge_per_mass);
+            kernel.sum(&self.law, x, q, &mut self.near_forces);
         }
         let this = &*self;
         forces
@@ -146,11 +158,12 @@ impl Interactor {
         (force, moment)
     }
 
-    /// Near-field force on i: exact over all j, over the cut-off list, or from the tree.
+    /// Near-field force on i: exact over all j, over the cut-off list, or from the tree
+    /// (the tree and the all-pairs kernel have summed it already).
     fn near_field_on(&self, cloud: &Cloud, i: usize) -> Vector3<f64> {
         let ri = &cloud.positions[i];
-        if self.tree.is_some() {
-            return self.tree_forces[i];
+        if self.tree.is_some() || self.all_pairs.is_some() {
+            return self.near_forces[i];
         }
         let q = &cloud.charge_per_mass;
         let pair = |j: usize| {

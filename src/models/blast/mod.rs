@@ -11,6 +11,7 @@
 //! - `explicit`, `trapezoid`: the integrators (Boris–Strang, forward Euler; C9 + C10).
 //! - `observe`, `snapshot`: observables and snapshot writers; `study`: the study model.
 
+pub mod all_pairs;
 pub mod cloud;
 pub mod explicit;
 pub mod field;
