@@ -183,5 +183,29 @@ fn run_stops_at_the_terminal_energy_fraction() {
     );
     assert_eq!(outcome.last().time, stop);
     p.stop_energy_fraction = 0.0;
-    assert!(run(&p, 1, &|_| {}, None).unwrap().terminal_time.is_none());
+    let unstopped = run(&p, 1, &|_| {}, None).unwrap();
+    assert!(unstopped.terminal_time.is_none());
+    assert!(unstopped.envelope_settled_time().is_none());
+}
+
+#[test]
+fn envelope_settles_when_the_remaining_stokes_displacement_falls_below_one_percent() {
+    let (mut p, tau) = stokes_cloud(2.0);
+    p.duration = 20.0 * tau;
+    p.samples = 400;
+    p.stop_energy_fraction = 1e-8; // e^{−2t/τ}: t = 9.2 τ
+    p.cloud_radius = 1e-3; // small beside the terminal displacement v0 τ = 6 mm
+    let outcome = run(&p, 1, &|_| {}, None).unwrap();
+    let settled = outcome
+        .envelope_settled_time()
+        .expect("terminal state reached");
+    // each particle still has v0 τ e^{−t/τ} to go, 1 % of its terminal displacement at
+    // t = τ ln 100 = 4.6 τ (measured 4.5 τ: the initial cloud adds to the envelope)
+    println!("settled at {:.2} τ", settled / tau);
+    assert!(
+        settled > 3.0 * tau && settled < 6.0 * tau,
+        "{}",
+        settled / tau
+    );
+    assert!(settled <= outcome.terminal_time.unwrap());
 }

@@ -218,10 +218,32 @@ pub struct BlastOutcome {
     pub terminal_time: Option<f64>,
 }
 
+/// Relative band about the terminal semi-axes within which the envelope counts as settled.
+const SETTLED_BAND: f64 = 0.01;
+
 impl BlastOutcome {
     /// The last sample.
     pub fn last(&self) -> &Sample {
         self.samples.last().expect("t = 0 is always sampled")
+    }
+
+    /// Earliest sample time from which both gyration semi-axes stay within 1 % of their
+    /// values at the terminal state, s: when the envelope became stationary. None unless the
+    /// run reached its terminal state (an envelope that is still moving when the time budget
+    /// ends has not settled, whatever its last samples show).
+    pub fn envelope_settled_time(&self) -> Option<f64> {
+        self.terminal_time?;
+        let end = self.last().envelope;
+        let settled = |s: &Sample| {
+            (s.envelope.along - end.along).abs() <= SETTLED_BAND * end.along
+                && (s.envelope.across - end.across).abs() <= SETTLED_BAND * end.across
+        };
+        let first = self
+            .samples
+            .iter()
+            .rposition(|s| !settled(s))
+            .map_or(0, |k| k + 1);
+        Some(self.samples[first].time)
     }
 }
 

@@ -473,6 +473,7 @@ const METRICS: &[&str] = &[
     "min_time_step_s",
     "max_time_step_s",
     "terminal_time_s",
+    "envelope_settled_time_s",
     "equatorial_error",
     "turning_radius_m",
     "turning_radius_initial_m",
@@ -548,6 +549,7 @@ impl BlastModel {
             ("min_time_step_s", finite(stats.dt_min)),
             ("max_time_step_s", finite(stats.dt_max)),
             ("terminal_time_s", outcome.terminal_time),
+            ("envelope_settled_time_s", outcome.envelope_settled_time()),
             (
                 "equatorial_error",
                 finite((e.across - params.target_equatorial_radius).abs()),
