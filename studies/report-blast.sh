@@ -43,16 +43,23 @@ $(case "$dir" in *-quick) printf '\n**Quick mode** (CI size: fewer particles, sh
 ## Long-time dynamics: decaying orbits to a stationary ellipsoid (Highlights, §3.2, Fig. 2)
 
 Stop at 1 % of the blast energy (the source's spheres: R = 5 cm, ρ = 7000 kg/m³, 10 T,
-|δv| = 1.65 m/s, time budget $(m long-chow parameters.duration_s %.0f) s, N = $(m long-chow parameters.particles %.0f)) or at 1e-4
+|δv| = 1.65 m/s, time budget $(m long-chow parameters.duration_s %.0f) s, N = $(m long-chow parameters.particles %.0f); under Stokes drag budget
+$(m long-stokes parameters.duration_s %.0f) s, N = $(m long-stokes parameters.particles %.0f), Δt = $(m long-stokes parameters.dt_s) s) or at 1e-4
 (light spheres: R = 0.5 mm, ρ = 1000 kg/m³, B = 0.1 T, |δv| = 1.65 m/s, half the charges
 negative, budget 120 s, N = 200; Stokes τ = 3.09 s, Ωτ = 3.09):
 
-| case | drag | stopped at (s) | kinetic energy left (J) | semi-axes along / across B (m) | L_+ / L_- at the end (J·s) |
-|---|---|---|---|---|---|
+| case | drag | stopped at (s) | envelope stationary from (s) | kinetic energy left (J) | semi-axes along / across B (m) | L_+ / L_- at the end (J·s) |
+|---|---|---|---|---|---|---|
 EOF
 for c in long-chow long-quadratic long-stokes light-chow light-quadratic light-stokes; do
-  echo "| $c | $(m $c parameters.drag %s) | $(m $c terminal_time_s) | $(m $c kinetic_energy_J) | $(m $c semi_axis_along_B_m) / $(m $c semi_axis_across_B_m) | $(m $c spin_positive_Js) / $(m $c spin_negative_Js) |"
+  echo "| $c | $(m $c parameters.drag %s) | $(m $c terminal_time_s) | $(m $c envelope_settled_time_s) | $(m $c kinetic_energy_J) | $(m $c semi_axis_along_B_m) / $(m $c semi_axis_across_B_m) | $(m $c spin_positive_Js) / $(m $c spin_negative_Js) |"
 done
+cat <<EOF
+
+"Stationary from" is the first sample after which both gyration semi-axes stay within 1 % of
+their terminal values (\`envelope_settled_time_s\`); "–" where the run did not reach its
+terminal state within its budget, so its envelope had not settled.
+EOF
 cat <<EOF
 
 Light spheres under Stokes drag (\`$(basename "$dir")/light-stokes/\`, series.parquet; the
@@ -83,9 +90,13 @@ in opposite senses while the swirl decays:
 - **The source's spheres are far from rest at t = 1 s.** With C_D = 0.5, K = 6.6e-4 /m: 1 % of
   the energy is left after t = 9/(K|δv|) ≈ 8 300 s, by which the blast has run ln(10)/K ≈ 3.5 km
   along B ($(m long-chow semi_axis_along_B_m) m gyration semi-axis under Chow) while the across-B size stays
-  at R_0 (cyclotron radius 1.65 cm); under Stokes (τ = 2.2e5 s) it would run v0τ = 357 km.
-  The stationary shape is therefore a needle thousands of times longer than wide, not the
-  3.2:1 ellipsoid of Fig. 5, which is a snapshot at 1 s.
+  at R_0 (cyclotron radius 1.65 cm). Under Stokes drag (τ = m/c = 2.16e5 s) the run reaches
+  1 % of the energy at $(m long-stokes terminal_time_s) s (analytic: τ ln 10 = 4.98e5 s), with its envelope stationary
+  from $(m long-stokes envelope_settled_time_s) s; its extreme particle is then $(m long-stokes extent_along_B_m) m along B from the centre of mass
+  (v0τ(1 − e^{−t/τ}) = 3.22e5 m at the stop, plus the centre of mass's offset from the
+  imbalance of $(m long-stokes parameters.particles %.0f) launch directions; v0τ = 357 km in the limit) and $(m long-stokes extent_across_B_m) m across.
+  The stationary shape is therefore a needle hundreds of thousands of times longer than wide,
+  not the 3.2:1 ellipsoid of Fig. 5, which is a snapshot at 1 s.
 - **Swirl.** A radial blast has no angular momentum about B; the field turns the positive
   and negative charges in opposite senses (§3.2 Remark 1): L_+ and L_- have opposite signs in
   every mixed run above, and their size follows L_± = ∓|q̄| m B Σ Δ(r⊥²)/2 (C15, tested).
@@ -102,7 +113,7 @@ to a fraction of the source's 1 s (the gyration period is 63 ms):
 EOF
 for c in dense-none dense-contact dense-bonds dense-nf-mass dense-nf-area dense-nf-volume \
   dense-nf-charge dense-nf-charge-sign dense-nf-cutoff dense-none-1s dense-contact-1s \
-  dense-bonds-1s dense-nf-cutoff-1s; do
+  dense-bonds-1s dense-nf-area-1s dense-nf-volume-1s dense-nf-cutoff-1s; do
   [ -f "$dir/$c.json" ] || continue
   reading=–
   if jq -e '.parameters.interactions | test("near-field|all")' "$dir/$c.json" > /dev/null; then
@@ -129,11 +140,17 @@ Side views at t = 0.5 s and 1 s, and the largest cluster over time, of the cut-o
   mass 13.4 kg², area 9.9e-4 m⁴, volume 2.7e-7 m⁶, charge 1343 C².
   - mass, all pairs: **disagrees** — the collective 1/r pull collapses the cloud into one
     bonded cluster (largest $(m dense-nf-mass largest_cluster %.0f), aspect ratio $(m dense-nf-mass aspect_ratio), kinetic energy $(m dense-nf-mass kinetic_energy_J) J
-    from the 10 kJ blast) within $(m dense-nf-mass parameters.duration_s) s;
+    from the 10 kJ blast) within $(m dense-nf-mass parameters.duration_s) s. Bonds are permanent (C7), so a cloud
+    that is one bonded cluster stays one: it cannot become clumps along a helix later, and
+    the run need not go on to 1 s for the verdict (past the collapse every pair touches and
+    the contact stiffness sets steps of microseconds);
   - charge, all pairs: **disagrees** — α 100 times the mass one: a ball of $(m dense-nf-charge semi_axis_along_B_m) m
-    holding all particles after $(m dense-nf-charge parameters.duration_s) s;
-  - area and volume: **disagree** — too weak to change anything (kinetic energy
-    $(m dense-nf-area kinetic_energy_J) J and $(m dense-nf-volume kinetic_energy_J) J, no bonds);
+    holding all particles, one bonded cluster, after $(m dense-nf-charge parameters.duration_s) s (the same argument);
+  - area and volume: **disagree** — too weak to agglomerate. Over the source's full 1 s
+    with the exact sum: aspect ratio $(m dense-nf-area-1s aspect_ratio) (area) and $(m dense-nf-volume-1s aspect_ratio) (volume) against
+    $(m dense-bonds-1s aspect_ratio) with contact and bonds only; kinetic energy $(m dense-nf-area-1s kinetic_energy_J) J and $(m dense-nf-volume-1s kinetic_energy_J) J against
+    $(m dense-bonds-1s kinetic_energy_J) J; $(m dense-nf-area-1s bonds %.0f) and $(m dense-nf-volume-1s bonds %.0f) bonds, largest cluster $(m dense-nf-area-1s largest_cluster %.0f) and $(m dense-nf-volume-1s largest_cluster %.0f).
+    The area reading's collective pull slows the expansion a little; neither forms clumps;
   - charge with the sign factor c_i c_j and half the charges negative (like pairs attract,
     unlike ones repel): $(m dense-nf-charge-sign clusters %.0f) clusters (largest
     $(m dense-nf-charge-sign largest_cluster %.0f)), $(m dense-nf-charge-sign bonds %.0f) bonds at $(m dense-nf-charge-sign parameters.duration_s) s, kinetic energy $(m dense-nf-charge-sign kinetic_energy_J) J;
@@ -157,8 +174,12 @@ gives no forces, duration or criterion for this step; magopt uses the RSA placem
 ## Speed
 
 Non-interacting example (N = $n, 1 s, 10 000 Boris steps): $(m field-on wall_time_s %.2f) s wall. Interacting,
-exact near-field sums, N = $(m dense-nf-mass parameters.particles %.0f): $(m dense-nf-mass wall_time_s %.1f) s wall for
-$(m dense-nf-mass parameters.duration_s) s of simulated time ($(m dense-nf-mass steps %.0f) steps, $(m dense-nf-mass mean_iterations %.2f) iterations per step). The source's
+exact near-field sums over all pairs, N = $(m dense-nf-area-1s parameters.particles %.0f), the source's full 1 s (area reading,
+which leaves the cloud expanding as without the near field): $(m dense-nf-area-1s wall_time_s %.1f) s wall ($(m dense-nf-area-1s steps %.0f) steps,
+$(m dense-nf-area-1s mean_iterations %.2f) iterations per step; volume reading $(m dense-nf-volume-1s wall_time_s %.1f) s). The collapsing readings cost more
+per simulated second, since the contacts, not the near field, then set the step:
+mass $(m dense-nf-mass wall_time_s %.1f) s wall for $(m dense-nf-mass parameters.duration_s) s ($(m dense-nf-mass steps %.0f) steps). The source's
 "under one minute" (§6.1) is said of its non-interacting example; it gives no time for the
-interacting runs.
+interacting runs. The all-pairs sum is a vectorized kernel (\`src/models/blast/all_pairs.rs\`,
+AVX where present, bit-identical to its portable twin).
 EOF

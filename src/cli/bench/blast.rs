@@ -1,6 +1,7 @@
 //! `magopt bench blast`: the source's non-interacting example (Boris–Strang, 10⁴ steps) and
 //! the interacting example (adaptive trapezoidal rule; near field exact or Barnes–Hut) per
-//! particle count and thread count: wall time, steps and particle-steps per second.
+//! particle count and thread count: wall time, steps and particle-steps per second, and for
+//! the exact near field the pair terms summed per second (N(N − 1) per force evaluation).
 
 use serde_json::json;
 
@@ -17,15 +18,17 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
         args.near_field_theta
     );
     println!(
-        "{:>6} {:>7} {:>12} {:>9} {:>8} {:>9} {:>10} {:>16} {:>13}",
+        "{:>6} {:>7} {:>12} {:>9} {:>8} {:>9} {:>8} {:>10} {:>16} {:>12} {:>13}",
         "N",
         "threads",
         "model",
         "time (s)",
         "steps",
         "rejected",
+        "evals",
         "wall (s)",
         "particle-steps/s",
+        "pairs/s",
         "peak RSS (MB)"
     );
     let mut rows = Vec::new();
@@ -47,12 +50,17 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                 let o = pool.install(|| run_blast(&p, 1, &|_| {}, None))?;
                 let label = if interacting { "interacting" } else { "free" };
                 let rate = (o.stats.steps * n) as f64 / o.wall_time_s;
+                let exact = interacting && p.near_field.theta == 0.0;
+                let pairs = (o.stats.evaluations * n * (n - 1)) as f64 / o.wall_time_s;
+                let pairs = exact.then_some(pairs);
                 println!(
-                    "{n:>6} {threads:>7} {label:>12} {:>9} {:>8} {:>9} {:>10.3} {rate:>16.3e} {:>13.1}{}",
+                    "{n:>6} {threads:>7} {label:>12} {:>9} {:>8} {:>9} {:>8} {:>10.3} {rate:>16.3e} {:>12} {:>13.1}{}",
                     p.duration,
                     o.stats.steps,
                     o.stats.rejected,
+                    o.stats.evaluations,
                     o.wall_time_s,
+                    pairs.map_or("–".into(), |r| format!("{r:.3e}")),
                     peak_rss_mb(),
                     o.failure
                         .as_ref()
@@ -67,6 +75,8 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                     "rejected": o.stats.rejected,
                     "wall_s": o.wall_time_s,
                     "particle_steps_per_s": rate,
+                    "force_evaluations": o.stats.evaluations,
+                    "near_field_pairs_per_s": pairs,
                     "failure": o.failure,
                     "peak_rss_mb": peak_rss_mb(),
                 }));

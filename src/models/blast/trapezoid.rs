@@ -29,6 +29,8 @@ pub struct StepStats {
     pub rejected: usize,
     /// Fixed-point iterations over accepted steps.
     pub iterations: usize,
+    /// Evaluations of all forces (accepted and rejected attempts): the unit of cost.
+    pub evaluations: usize,
     /// Smallest accepted adaptive step (steps clipped at sampling times excluded), s.
     pub dt_min: f64,
     /// Largest accepted adaptive step, s.
@@ -82,6 +84,7 @@ impl Trapezoid {
         self.start.clone_from(cloud);
         loop {
             let h = self.dt.min(limit);
+            self.stats.evaluations += 1;
             forces.evaluate(
                 &self.start,
                 h,
@@ -162,6 +165,7 @@ impl Trapezoid {
             if k == kd || !error.is_finite() {
                 return Err(if error.is_finite() { lambda } else { f64::NAN });
             }
+            self.stats.evaluations += 1;
             forces.evaluate(cloud, h, &mut self.force, &mut self.moment);
         }
         unreachable!("the loop returns at k = K_d")
