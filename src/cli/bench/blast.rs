@@ -1,7 +1,7 @@
 //! `magopt bench blast`: the source's non-interacting example (Boris–Strang, 10⁴ steps) and
 //! the interacting example (adaptive trapezoidal rule; near field exact or Barnes–Hut) per
 //! particle count and thread count: wall time, steps and particle-steps per second, and for
-//! the exact near field the pair terms summed per second (N(N − 1) per force evaluation).
+//! the exact near field the pairs summed per second (N(N − 1)/2 per force evaluation).
 
 use serde_json::json;
 
@@ -51,7 +51,7 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                 let label = if interacting { "interacting" } else { "free" };
                 let rate = (o.stats.steps * n) as f64 / o.wall_time_s;
                 let exact = interacting && p.near_field.theta == 0.0;
-                let pairs = (o.stats.evaluations * n * (n - 1)) as f64 / o.wall_time_s;
+                let pairs = (o.stats.evaluations * n * (n - 1) / 2) as f64 / o.wall_time_s;
                 let pairs = exact.then_some(pairs);
                 println!(
                     "{n:>6} {threads:>7} {label:>12} {:>9} {:>8} {:>9} {:>8} {:>10.3} {rate:>16.3e} {:>12} {:>13.1}{}",
