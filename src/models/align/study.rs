@@ -127,11 +127,13 @@ static PARAMETERS: &[AlignParam] = &[
     choice_param!(
         "friction_scheme",
         "How friction enters the velocities: implicit (regularized, solved with them) or \
-         source-explicit (the source's Eq. (8) from the previous iterate's velocities)",
+         source-explicit (the source's Eq. (8) from the previous iterate's velocities) or \
+         coulomb-limit (v_ε = 0, solved implicitly)",
         params.numerics.friction_scheme,
         [
             ("implicit", FrictionScheme::Implicit),
-            ("source-explicit", FrictionScheme::SourceExplicit)
+            ("source-explicit", FrictionScheme::SourceExplicit),
+            ("coulomb-limit", FrictionScheme::CoulombLimit)
         ]
     ),
     Param {
