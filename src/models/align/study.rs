@@ -238,6 +238,26 @@ static PARAMETERS: &[AlignParam] = &[
         .within(Bounds::above_to(0.0, 1.0)),
         params.numerics.friction_regularization
     ),
+    number_param!(
+        ParamSpec::new(
+            "solver_tolerance",
+            K::Number,
+            "Velocity solves stop when no velocity changes by more than this fraction of the \
+             fastest magnetic surface speed in a sweep"
+        )
+        .within(Bounds::above_to(0.0, 1.0)),
+        params.numerics.solver_tolerance
+    ),
+    number_param!(
+        ParamSpec::new(
+            "max_sweeps",
+            K::Count,
+            "Cap on Gauss–Seidel sweeps per velocity solve (solves that hit it are counted in \
+             unconverged_solves)"
+        )
+        .within(Bounds::closed(1.0, 1e6)),
+        params.numerics.max_sweeps
+    ),
 ];
 
 const METRICS: &[&str] = &[
