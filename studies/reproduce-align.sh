@@ -14,20 +14,23 @@ bin=${MAGOPT:-target/release/magopt}
 [ -x "$bin" ] || cargo build --release --locked
 if [ "$mode" = "--quick" ]; then
   suffix=-quick; n=150; seeds="1"; fields="10 20 31 40 60 100"; frictions="0 0.2 0.5"
+  limit_time=2000s
 else
   suffix=; n=1000; seeds="1 2 3 4"; fields="5 10 20 31 40 60 80 100"; frictions="0 0.1 0.2 0.3 0.5"
+  limit_time=20000s
 fi
 pressures="0 0.5 1 5 10"
 out=results/reproduction/align-runs$suffix
 mkdir -p "$out"
-printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\n' "$fields" "$frictions" \
-  "$pressures" "$seeds" > "$out/grid.env"
+printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\n' "$fields" \
+  "$frictions" "$pressures" "$seeds" "$limit_time" > "$out/grid.env"
 # run CASE ARG…: one run per seed, recorded as CASE-s<seed>.json
 run() {
   local name=$1 s; shift
   for s in $seeds; do
     [ -s "$out/$name-s$s.json" ] && continue
-    nice -n 10 "$bin" align --json --particles $n --seed $s "$@" > "$out/$name-s$s.json.part"
+    nice -n 10 "$bin" align --json --particles $n --seed $s --max-time $limit_time "$@" \
+      > "$out/$name-s$s.json.part"
     mv "$out/$name-s$s.json.part" "$out/$name-s$s.json"
   done
 }
