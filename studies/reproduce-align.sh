@@ -8,6 +8,8 @@
 # Runs land in results/reproduction/align-runs[-quick]/<case>-s<seed>.json (the `magopt align
 # --json` record of each run); the report goes to results/reproduction/align[-quick].md. Cases
 # already recorded are kept (delete the directory to start over), so an interrupted run resumes.
+# CASES=REGEX runs only the cases whose name matches (a partial run: the report shows the
+# others as –), e.g. CASES='^(default|source)-mu.*-h40$' for Fig. 6b at full size.
 set -euo pipefail
 mode=${1:-full}
 bin=${MAGOPT:-target/release/magopt}
@@ -27,6 +29,7 @@ printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\n
 # run CASE ARG…: one run per seed, recorded as CASE-s<seed>.json
 run() {
   local name=$1 s; shift
+  [[ $name =~ ${CASES:-.} ]] || return 0
   for s in $seeds; do
     [ -s "$out/$name-s$s.json" ] && continue
     nice -n 10 "$bin" align --json --particles $n --seed $s --max-time $limit_time "$@" \
