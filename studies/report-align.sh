@@ -59,7 +59,8 @@ seeds). Three methods: **default** (implicit regularized friction, v_ε = 1e-2, 
 exposed layer), **source** (the source's explicit Eq. (8) and its top-layer load rule,
 \`--friction-scheme source-explicit --pressure-mode source-layer\`), **limit** (the Coulomb
 limit v_ε = 0, \`--friction-scheme coulomb-limit\`). A run that has not reached A = 0.95 within
-$limit_time of simulated time counts as "not reached". Machine: 2 cores shared with other jobs.
+$limit_time of simulated time counts as "not reached"; a case not run (a partial run,
+\`CASES=…\`) shows –. Machine: 2 cores shared with other jobs.
 $( [[ $dir == *-quick ]] && printf '\n**Quick mode** (CI size: N = %s, one replicate, coarse grids). The source used N = 1000 and\nfour replicates (§3, Fig. 6 caption); these numbers are not its full-size comparison.\n' "$n")
 
 ## Claims (§3, Figs. 5–7)
