@@ -5,14 +5,8 @@
 # directory given; the source's numbers are quoted with their section or equation.
 set -euo pipefail
 dir=$1
-# m CASE METRIC [FORMAT]: a metric of a run, formatted (default 4 significant digits)
-m() {
-  local v
-  v=$(jq -r ".$2" "$dir/$1.json")
-  if [ "$v" = null ]; then echo "–"; else printf "${3:-%.4g}" "$v"; fi
-}
-cmd() { echo "\`magopt blast $(jq -r '[.parameters | to_entries[] | select(.key == "particles" or .key == "drag" or .key == "interactions" or .key == "near_field_basis" or .key == "near_field_sign" or .key == "field_T" or .key == "duration_s") | "\(.key)=\(.value)"] | join(" ")' "$dir/$1.json")\`"; }
-ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.4g", a / b }'; }
+source "$(dirname "$0")/report-lib.sh"
+cmd() { cmd_of blast "particles drag interactions near_field_basis near_field_sign field_T duration_s" "$1"; }
 n=$(m field-on parameters.particles %.0f)
 cat <<EOF
 # blast: Zohdi 2016 claim by claim

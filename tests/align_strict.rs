@@ -10,7 +10,7 @@ use magopt::materials::MaterialDb;
 use magopt::models::align::dem::integrator::time_step;
 use magopt::models::align::dem::torque::reduced_anisotropy;
 use magopt::models::align::dem::{self, magnetic_torque, Packing};
-use magopt::models::align::{AlignOutcome, AlignParams, PressureMode};
+use magopt::models::align::{AlignOutcome, AlignParams, FrictionScheme, PressureMode};
 use magopt::units::si_per_unit;
 use nalgebra::UnitQuaternion;
 
@@ -77,6 +77,12 @@ fn frictionless_dem_is_the_lone_particle_ensemble_to_round_off() {
         let gap = largest_gap(&out, &reference);
         assert!(gap < 1e-13, "P = {pressure} atm {mode:?}: |ΔA| = {gap:e}");
     }
+    // the Coulomb-limit solve too: with μ = 0 its friction forces stay zero
+    let mut p = params(0.0, 5.0, PressureMode::Punch);
+    p.numerics.friction_scheme = FrictionScheme::CoulombLimit;
+    let out = dem::align(&p, &packing, None);
+    let gap = largest_gap(&out, &lone_particles(&p, &packing, out.steps));
+    assert!(gap < 1e-13, "Coulomb limit, punch: |ΔA| = {gap:e}");
 }
 
 /// P = 0, μ = 0.5 against μ = 0: not equal to round-off. The difference comes from the contact

@@ -42,6 +42,9 @@ pub enum FrictionScheme {
     /// The source's Eq. (8): the unregularized Coulomb force from the previous iterate's
     /// relative velocity, applied as a fixed force (no implicit solve).
     SourceExplicit,
+    /// The unregularized law (v_ε = 0) solved implicitly: the convex but nonsmooth velocity
+    /// problem by projected Gauss–Seidel on the contacts' friction forces.
+    CoulombLimit,
 }
 
 /// Which statistic of the net forces the settling rest criterion compares with `rest_speed` ×

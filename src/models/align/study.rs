@@ -127,11 +127,13 @@ static PARAMETERS: &[AlignParam] = &[
     choice_param!(
         "friction_scheme",
         "How friction enters the velocities: implicit (regularized, solved with them) or \
-         source-explicit (the source's Eq. (8) from the previous iterate's velocities)",
+         source-explicit (the source's Eq. (8) from the previous iterate's velocities) or \
+         coulomb-limit (v_ε = 0, solved implicitly)",
         params.numerics.friction_scheme,
         [
             ("implicit", FrictionScheme::Implicit),
-            ("source-explicit", FrictionScheme::SourceExplicit)
+            ("source-explicit", FrictionScheme::SourceExplicit),
+            ("coulomb-limit", FrictionScheme::CoulombLimit)
         ]
     ),
     Param {
@@ -235,6 +237,26 @@ static PARAMETERS: &[AlignParam] = &[
         )
         .within(Bounds::above_to(0.0, 1.0)),
         params.numerics.friction_regularization
+    ),
+    number_param!(
+        ParamSpec::new(
+            "solver_tolerance",
+            K::Number,
+            "Velocity solves stop when no velocity changes by more than this fraction of the \
+             fastest magnetic surface speed in a sweep"
+        )
+        .within(Bounds::above_to(0.0, 1.0)),
+        params.numerics.solver_tolerance
+    ),
+    number_param!(
+        ParamSpec::new(
+            "max_sweeps",
+            K::Count,
+            "Cap on Gauss–Seidel sweeps per velocity solve (solves that hit it are counted in \
+             unconverged_solves)"
+        )
+        .within(Bounds::closed(1.0, 1e6)),
+        params.numerics.max_sweeps
     ),
 ];
 

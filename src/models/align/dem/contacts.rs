@@ -152,6 +152,11 @@ impl ContactSet {
         &self.contacts[self.offsets[i]..self.offsets[i + 1]]
     }
 
+    /// Positions of particle i's contacts in `all`.
+    pub fn slots(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i]..self.offsets[i + 1]
+    }
+
     /// All listed contacts, both directions.
     pub fn all(&self) -> &[Contact] {
         &self.contacts

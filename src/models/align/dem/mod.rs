@@ -6,13 +6,14 @@
 //! - [`torque`] and [`loads`]: the anisotropy torque and the pressure and gravity loads;
 //! - [`contacts`] and [`velocity`]: the Hertz contacts and the implicit velocity problem
 //!   solved at every integrator stage; [`explicit_friction`]: the source's explicit friction
-//!   (a switchable variant);
+//!   (a switchable variant); [`coulomb`]: the velocity problem in its Coulomb limit v_ε = 0;
 //! - [`integrator`]: Heun stepping and the time step;
 //! - [`observables`]: A(t), τ_x, sticking fraction, contact count and the outcome;
 //! - [`snapshot`]: the state as a particle frame (easy axes, moments, cos θ, contacts);
 //! - `run`: the loop that calls them.
 
 pub mod contacts;
+pub mod coulomb;
 pub mod explicit_friction;
 pub mod integrator;
 pub mod loads;

@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 
 use super::contacts::{ContactLaw, ContactSet, Container};
+use super::coulomb::{self, FrictionForces};
 use super::explicit_friction::add_previous_iterate_friction;
 use super::integrator::{fastest_rotation, time_step, Heun};
 use super::loads::Loads;
@@ -47,9 +48,12 @@ pub struct Run<'a> {
     /// scheme.
     force: Vec<Vector3<f64>>,
     torque: Vec<Vector3<f64>>,
-    /// Friction regularization v_ε.
+    /// Friction regularization v_ε; in the Coulomb limit, the solver tolerance (the slip
+    /// below which a contact counts as sticking).
     slip_scale: f64,
     control: SolverControl,
+    /// The contacts' friction forces (Coulomb limit only), carried from solve to solve.
+    friction: FrictionForces,
     /// The punch's lid (pressure mode `punch`), resting at first on the highest particle.
     lid: Option<Lid>,
     /// Upward force the particles exert on the lid in the latest velocity solve.
@@ -77,6 +81,11 @@ impl<'a> Run<'a> {
         });
         let dt = time_step(params, packing);
         let n = packing.radius.len();
+        let tolerance = params.numerics.solver_tolerance * surface_speed;
+        let slip_scale = match params.numerics.friction_scheme {
+            FrictionScheme::CoulombLimit => tolerance,
+            _ => params.numerics.friction_regularization * surface_speed,
+        };
         Self {
             params,
             packing,
@@ -91,11 +100,12 @@ impl<'a> Run<'a> {
             anisotropy: Anisotropy::new(params, packing),
             force: vec![Vector3::zeros(); n],
             torque: vec![Vector3::zeros(); n],
-            slip_scale: params.numerics.friction_regularization * surface_speed,
+            slip_scale,
             control: SolverControl {
-                tolerance: params.numerics.solver_tolerance * surface_speed,
+                tolerance,
                 max_sweeps: params.numerics.max_sweeps,
             },
+            friction: FrictionForces::default(),
             lid,
             lid_force: 0.0,
         }
@@ -199,7 +209,7 @@ impl<'a> Run<'a> {
         );
         self.force.copy_from_slice(&self.loads.force);
         let law = match self.params.numerics.friction_scheme {
-            FrictionScheme::Implicit => self.law,
+            FrictionScheme::Implicit | FrictionScheme::CoulombLimit => self.law,
             FrictionScheme::SourceExplicit => {
                 let (force, torque) = (&mut self.force, &mut self.torque);
                 add_previous_iterate_friction(
@@ -229,13 +239,18 @@ impl<'a> Run<'a> {
         };
         let motion = &mut self.state.motion;
         let mut lid_velocity = self.state.lid.map_or(0.0, |l| l.velocity);
-        let stats = velocity::solve(
-            &stage,
-            &self.schedule,
-            motion,
-            &mut lid_velocity,
-            self.control,
-        );
+        let (schedule, control) = (&self.schedule, self.control);
+        let stats = match self.params.numerics.friction_scheme {
+            FrictionScheme::CoulombLimit => coulomb::solve(
+                &stage,
+                schedule,
+                motion,
+                &mut lid_velocity,
+                control,
+                &mut self.friction,
+            ),
+            _ => velocity::solve(&stage, schedule, motion, &mut lid_velocity, control),
+        };
         if let Some(lid) = self.state.lid.as_mut() {
             lid.velocity = lid_velocity;
             self.lid_force = stage.lid_force(motion, lid_velocity);

@@ -86,7 +86,7 @@ impl Stage<'_> {
     }
 
     /// The lid's contacts: (particle, the contact) for every contact with partner `LID`.
-    fn lid_contacts(&self) -> Vec<(usize, Contact)> {
+    pub(super) fn lid_contacts(&self) -> Vec<(usize, Contact)> {
         if self.lid.is_none() {
             return Vec::new();
         }
@@ -118,7 +118,12 @@ fn lid_force_on(dt: f64, contacts: &[(usize, Contact)], motion: &[Motion], w: f6
 /// The lid's velocity with every particle held: the root of drag w + load − F_up(w) = 0, which
 /// increases strictly in w (F_up falls as the lid rises), found by bisection between the free
 /// fall w = −load/drag (where it is ≤ 0) and the speed at which every contact opens (> 0).
-fn relax_lid(lid: &Lid, dt: f64, contacts: &[(usize, Contact)], motion: &[Motion]) -> f64 {
+pub(super) fn relax_lid(
+    lid: &Lid,
+    dt: f64,
+    contacts: &[(usize, Contact)],
+    motion: &[Motion],
+) -> f64 {
     let free_fall = -lid.load / lid.drag;
     let opening = contacts
         .iter()
@@ -220,6 +225,11 @@ pub struct Schedule {
 }
 
 impl Schedule {
+    /// The particles in Gauss–Seidel order (colour by colour, cell by cell).
+    pub(super) fn order(&self) -> impl Iterator<Item = usize> + '_ {
+        self.colours.iter().flatten().flatten().map(|&i| i as usize)
+    }
+
     /// Builds the order for the positions at which the neighbour list was built; cells of a
     /// colour are relaxed concurrently from `parallel_from` particles on (same result either way).
     pub fn new(positions: &[Vector3<f64>], cell: f64, parallel_from: usize) -> Self {
@@ -307,7 +317,7 @@ unsafe fn relax(stage: &Stage, velocities: &Velocities, i: usize, lid_velocity: 
         // SAFETY: j is a listed partner of i (the caller's contract).
         stage.partner_velocity(c, lid_velocity, |j| unsafe { velocities.read(j) })
     });
-    let new = solve_particle(stage, i, old, partners);
+    let new = solve_particle(stage, i, stage.force[i], stage.torque[i], old, partners);
     // SAFETY: as for the read of `old`.
     unsafe { velocities.write(i, new) };
     (new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm()
@@ -426,19 +436,22 @@ where
     }
 }
 
-/// Damped Newton on particle i's local problem, started at `start`, with the surface velocity
-/// of each listed partner (in contact-list order) held fixed.
-fn solve_particle(
+/// Damped Newton on particle i's local problem under the external `force` and `torque`,
+/// started at `start`, with the surface velocity of each listed partner (in contact-list
+/// order) held fixed.
+pub(super) fn solve_particle(
     stage: &Stage,
     i: usize,
+    force: Vector3<f64>,
+    torque: Vector3<f64>,
     start: Motion,
     partners: impl Iterator<Item = Vector3<f64>>,
 ) -> Motion {
     let mut local = Local {
         stage,
         radius: stage.radius[i],
-        force: stage.force[i],
-        torque: stage.torque[i],
+        force,
+        torque,
         contacts: stage.contacts.of(i),
         partner: [Vector3::zeros(); 32],
         overflow: Vec::new(),
