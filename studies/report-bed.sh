@@ -15,7 +15,7 @@ m() {
 # values CASE-PREFIX METRIC: the metric of every seed run PREFIX-s*.json, one per line
 values() {
   local f
-  for f in "$dir/$1"-s*.json; do [ -s "$f" ] && jq -r ".$2 // empty" "$f"; done
+  for f in "$dir/$1"-s*.json; do if [ -s "$f" ]; then jq -r ".$2 // empty" "$f"; fi; done
 }
 # ms CASE-PREFIX METRIC [FORMAT]: mean ± sample sd over the seeds, and their count
 ms() {
@@ -31,11 +31,22 @@ within() { awk -v w="$1" -v m="$2" -v s="$3" 'BEGIN { if (m == "–") { print w 
 sd() { values "$1" "$2" | awk '{ s += $1; q += $1 * $1; n++ } END { if (n) printf "%.6g", (n > 1 ? sqrt((q - s * s / n) / (n - 1)) : 0) }'; }
 # src VALUE SD: a source value with its sd, or "–"
 src() { if [ "$1" = – ]; then echo –; else echo "$1 ± $2"; fi; }
+# failed CASE-PREFIX: "k failed: first reason" over the seeds, empty if none failed
+failed() {
+  local f k=0 why=
+  for f in "$dir/$1"-s*.json; do
+    if [ -s "$f" ] && [ "$(jq -r .status "$f")" != ok ]; then
+      k=$((k + 1)); [ -n "$why" ] || why=$(jq -r .reason "$f")
+    fi
+  done
+  if [ $k -gt 0 ]; then echo "$k failed: $why"; fi
+}
 # mean CASE-PREFIX METRIC: the seed mean alone (empty if no run)
 mean() { values "$1" "$2" | awk '{ s += $1; n++ } END { if (n) printf "%.6g", s / n }'; }
 # ratio A B: A/B to 3 decimals, "–" if either is missing
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { if (a == "" || b == "" || a == "–" || b == "–") print "–"; else printf "%.3f", a / b }'; }
 quick=false
+n_bi=$(jq -r '.parameters.particles' "$dir"/bi-*.json 2> /dev/null | head -1)
 case "$dir" in *-quick) quick=true;; esac
 n_std=$(jq -r '.parameters.particles' "$dir/default-N"*.json 2> /dev/null | head -1)
 
@@ -91,6 +102,23 @@ earlier (docs/bed-protocol.md). D̂_end/D̂_min, set by the compression and expa
 least on the start state. At N = 92 the source's relaxed bed rose above its piston (§3.5);
 magopt starts from H0 = H at every N.
 
+## §3.4, Figs. 3.5–3.7: friction with the second-order tilt term (N = $n_std, 5.63 mm/s, seed 1)
+
+The source (§3.4): the first- and second-order tilt terms (Eq. (3.2)) with the same coefficients
+"are quite similar", the second with "slightly greater hysteresis"; μ_s = μ_d = 0.8 gives "a much
+greater hysteresis", mostly in the expansion, and a larger force at a given φ on compression.
+Hysteresis here: the cycle work ∮F dy and (D̂₀ − D̂_end)/D̂_min.
+
+| friction | F_max (N) | cycle work (J) | (D̂₀ − D̂_end)/D̂_min | case |
+|---|---|---|---|---|
+EOF
+for c in default tilt2 tilt2-mu0.8; do
+  k=$c-N$n_std
+  label=$(case $c in default) echo "first order, μ_s 0.6, μ_d 0.45 (default)";; tilt2) echo "second order, same coefficients";; *) echo "second order, μ_s = μ_d = 0.8";; esac)
+  echo "| $label | $(m $k max_piston_force_N %.2f) | $(m $k cycle_work_J %.3f) | $(awk -v a="$(m $k mean_distance_start_D %.6g)" -v b="$(m $k mean_distance_end_D %.6g)" -v c="$(m $k mean_distance_min_D %.6g)" 'BEGIN { if (c == "–") print "–"; else printf "%.3f", (a - b) / c }') | $k |"
+done
+cat <<EOF
+
 ## Tables 3.2 and 5.2: F_max at maximum compression (8.33 mm/s, seeds 1–3)
 
 | N | source O(N²) (Table 3.2) | magopt exact | source Verlet (Table 5.2) | magopt source-verlet (r_v = 11.26 D, r_s = 4.13 D) | source % diff | magopt % diff | verdict |
@@ -111,7 +139,7 @@ for n in 92 184 276 368 460 552 644 736; do
     d = e - so; z = d / sqrt(sose ^ 2 + me ^ 2 + 1e-12)
     printf "exact %+.1f %% (%.1f σ): %s", 100 * d / so, z, (z <= 2 && z >= -2) ? "reproduced" : "differs" }')
   echo "| $n | $(src $so $sose) | $(ms exact-N$n max_piston_force_N %.2f) | $(src $sv $svse) | $(ms sv11.26-N$n max_piston_force_N %.2f) | $sd | $diff | $verdict |"
-  [ -n "$e" ] && fits_in+=("$n $e")
+  if [ -n "$e" ]; then fits_in+=("$n $e"); fi
 done
 cat <<EOF
 
@@ -146,16 +174,16 @@ cat <<EOF
 The source: the forces approach the O(N²) band as r_v grows, and r_v = 11.26 D is the
 smallest radius inside it; run time falls to 14 % of the O(N²) run at 11.26 D (§5.1.1).
 
-| r_v (D) | F_max (N) | wall time (s) | wall / exact | list builds |
-|---|---|---|---|---|
+| r_v (D) | F_max (N) | wall time (s) | wall / exact | list builds | failed runs |
+|---|---|---|---|---|---|
 EOF
 exact_wall=$(mean exact-N$n_std wall_time_s)
 for r in 6.26 7.26 8.26 9.26 10.26 11.26 12.26; do
   w=$(mean sv$r-N$n_std wall_time_s)
   [ -z "$w" ] && continue
-  echo "| $r | $(ms sv$r-N$n_std max_piston_force_N %.2f) | $(printf %.0f "$w") | $(ratio "$w" "$exact_wall") | $(mean sv$r-N$n_std list_builds) |"
+  echo "| $r | $(ms sv$r-N$n_std max_piston_force_N %.2f) | $(printf %.0f "$w") | $(ratio "$w" "$exact_wall") | $(mean sv$r-N$n_std list_builds) | $(failed sv$r-N$n_std) |"
 done
-echo "| exact | $(ms exact-N$n_std max_piston_force_N %.2f) | $(printf %.0f "${exact_wall:-0}") | 1 | – |"
+echo "| exact | $(ms exact-N$n_std max_piston_force_N %.2f) | $(printf %.0f "${exact_wall:-0}") | 1 | – | $(failed exact-N$n_std) |"
 cat <<EOF
 
 ## Table A.2: Voronoi statistics at maximum compression (seeds 1–3)
@@ -173,6 +201,12 @@ for n in 92 184 368 460 552 644 736; do
   echo "| $n | $sv | $(tri sv11.26-N$n) | $se | $(tri exact-N$n) |"
 done
 cat <<EOF
+
+magopt's source-verlet rebuilds its list once a disc has moved r_s = 4.13 D (docs/bed.md): a pair
+outside r_v at a build can close in by up to 2 r_s before the next, so below r_v ≈ 2 r_s + 1 D
+pairs can meet unseen, and the bed collapses (the failed runs above). The source ran r_v = 6.26 D
+(Fig. 5.2) without stating such failures; its rebuild rule may differ from this reading of
+§5.1. Wall times are of runs that did not fail (a failed run stops early).
 
 The source does not name the stage of Table A.2; magopt's is maximum compression (n_k are
 fractions of the counted Voronoi cells, docs/analysis.md).
@@ -242,6 +276,8 @@ friction, piston 200 g (the source states no mass).
 | ω | 1.05 | $(m damper-N$n_std damper_fall_vdp_omega %.4f) |
 | g0 | −1 | $(m damper-N$n_std damper_fall_vdp_g0 %.4f) |
 | rms residual of Eq. (5.12) (units of z(0)) | "very close similarity" | $(m damper-N$n_std damper_fall_vdp_rmse %.3g) (linear damped oscillator: $(m damper-N$n_std damper_fall_linear_rmse %.3g)) |
+| α in standard errors; rms of Eq. (5.12) over the linear fit's (same parameter count) | – | $(ratio "$(m damper-N$n_std damper_fall_vdp_alpha %.6g)" "$(m damper-N$n_std damper_fall_vdp_alpha_std_error %.6g)"); $(ratio "$(m damper-N$n_std damper_fall_vdp_rmse %.6g)" "$(m damper-N$n_std damper_fall_linear_rmse %.6g)") |
+| equilibrium g0/ω² against the measured rest z_rest/z(0) | −0.907 (Fig. 5.12's parameters) | $(awk -v g="$(m damper-N$n_std damper_fall_vdp_g0 %.6g)" -v w="$(m damper-N$n_std damper_fall_vdp_omega %.6g)" 'BEGIN { if (g == "–") print "–"; else printf "%.3f", g / w / w }') against $(awk -v r="$(m damper-N$n_std damper_rest_height_m %.6g)" -v t="$(m damper-N$n_std damper_fall_time_unit_s %.6g)" -v g="$(m damper-N$n_std parameters.gravity_m_per_s2 %.6g)" 'BEGIN { if (r == "–" || t == "–") print "–"; else printf "%.3f", r / (g * t * t) }') (z(0) = g T², T the time unit) |
 | rms distance of Fig. 5.12's curve from magopt's fall | – | $(m damper-N$n_std damper_fall_source_curve_rmse %.3g) |
 | time unit √(z(0)/g) | – | $(m damper-N$n_std damper_fall_time_unit_s %.4f) s |
 | rest height of the loaded piston | – | $(m damper-N$n_std damper_rest_height_m %.4f) m |

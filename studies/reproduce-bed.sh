@@ -9,7 +9,7 @@
 # `magopt damper --json` record of each run); the report goes to
 # results/reproduction/bed[-quick].md. A case whose record exists is not run again (delete the
 # directory for a fresh run), so an interrupted full run resumes; the report marks cases not
-# run. The cases run in order of priority: the speed and damper cases, Tables 3.2/5.2 and 3.1,
+# run. The cases run in order of priority: the speed, damper and friction cases, Tables 3.2/5.2 and 3.1,
 # Fig. 5.2, then the bi-disperse beds.
 set -euo pipefail
 mode=${1:-full}
@@ -39,6 +39,11 @@ std=(--piston-speed 8.33mm/s)
 # the default cycle with lists (speed line of the issue) and the damper (§5.3, Fig. 5.12)
 run bed default-N$n_std --particles $n_std
 run damper damper-N$n_std --particles $n_std
+# §3.4, Figs. 3.5–3.7: the second-order tilt term (Eq. (3.2)), with the standard friction
+# coefficients and with μ_s = μ_d = 0.8, against the first-order default-N… above (5.63 mm/s)
+run bed tilt2-N$n_std --particles $n_std --tilt-order second
+run bed tilt2-mu0.8-N$n_std --particles $n_std --tilt-order second --static-friction 0.8 \
+  --dynamic-friction 0.8
 # Tables 3.2 and 5.2: exact sums ("standard", O(N²)) and the source's Verlet variant
 # (every pair of the r_v = 11.26 D list, rebuilt after 4.13 D), seeds 1–3
 for n in $table52; do

@@ -22,9 +22,22 @@ use crate::Result;
 /// The series of the first fall: piston height (m) against time from the release (s).
 pub const SERIES: &str = "piston_fall_z";
 
-/// Most samples the first-fall fit uses (the record is thinned to every k-th sample): the fall
+/// Most samples the first-fall fit uses (the motion is thinned to every k-th sample): the fall
 /// spans a few periods, and the fit's cost grows with the sample count.
-pub const FALL_FIT_SAMPLES: usize = 150;
+pub const FALL_FIT_SAMPLES: usize = 200;
+
+/// The fitted motion ends a quarter after the last sample that is off the final height by more
+/// than this fraction of the drop z(0) − z_end: the rest of the record sits at the rest height
+/// and would outweigh the motion in the fit (and thin its sampling below the period).
+pub const SETTLED: f64 = 0.02;
+
+/// Number of leading samples that hold the motion (see [`SETTLED`]).
+fn motion_len(z: &[f64]) -> usize {
+    let Some(&end) = z.last() else { return 0 };
+    let drop = (z[0] - end).abs();
+    let last = z.iter().rposition(|h| (h - end).abs() > SETTLED * drop);
+    last.map_or(z.len(), |k| (k + 1 + k / 4).min(z.len()))
+}
 
 /// Fig. 5.12's parameters in [`Oscillator::VanDerPol`]'s order: α, ω, g0, z(0), z'(0).
 pub const SOURCE_FIG_5_12: [f64; 5] = [0.17, 1.05, -1.0, 1.0, 0.0];
@@ -60,8 +73,8 @@ pub struct FallFit {
     pub source_curve_rmse: f64,
 }
 
-/// Fits the first fall (series [`SERIES`]) under gravity `gravity` (m/s², > 0), thinned to
-/// at most `max_samples` samples.
+/// Fits the first fall (series [`SERIES`]) under gravity `gravity` (m/s², > 0), up to where it
+/// has settled ([`SETTLED`]), thinned to at most `max_samples` samples.
 ///
 /// # Errors
 /// Too few or bad samples (see [`fit_both_oscillators`]), or a non-positive z(0) or gravity.
@@ -74,6 +87,8 @@ pub fn fit_first_fall(series: &Series, gravity: f64, max_samples: usize) -> Resu
         )));
     }
     let time_unit = (start / gravity).sqrt();
+    let heights: Vec<f64> = samples.iter().map(|s| s.1).collect();
+    let samples = &samples[..motion_len(&heights)];
     let every = samples.len().div_ceil(max_samples.max(1)).max(1);
     let (time, height): (Vec<f64>, Vec<f64>) = samples
         .iter()
@@ -255,8 +270,7 @@ mod tests {
     fn recovers_a_damped_fall_to_a_positive_rest() {
         // A bed-like fall: rest at g0/ω² = 0.6 z(0), damping (α < 0 on 0 < z < 2).
         let truth = [-0.3, 3.0, 5.4, 1.0, 0.0];
-        let fit =
-            fit_first_fall(&fall_in_si(&truth, 0.3, 9.8, 6.0), 9.8, SAMPLES).unwrap();
+        let fit = fit_first_fall(&fall_in_si(&truth, 0.3, 9.8, 6.0), 9.8, SAMPLES).unwrap();
         for (k, t) in truth.iter().enumerate() {
             let got = fit.van_der_pol.params[k];
             assert!(
@@ -266,6 +280,17 @@ mod tests {
         }
         let [alpha, se] = [fit.values()[0], fit.values()[1]];
         assert!(alpha.abs() > 10.0 * se, "α = {alpha} ± {se}: identifiable");
+    }
+
+    #[test]
+    fn the_fit_ends_where_the_motion_has_settled() {
+        // Drop 1 → 0.5; the last sample off 0.5 by more than 2 % of the drop is index 3.
+        let z = [
+            1.0, 0.4, 0.55, 0.52, 0.505, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5,
+        ];
+        assert_eq!(motion_len(&z), 4);
+        let long: Vec<f64> = (0..100).map(|k| if k < 40 { 1.0 } else { 0.5 }).collect();
+        assert_eq!(motion_len(&long), 40 + 39 / 4);
     }
 
     #[test]
