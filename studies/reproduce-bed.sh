@@ -38,7 +38,7 @@ std=(--piston-speed 8.33mm/s)
 
 # the default cycle with lists (speed line of the issue) and the damper (§5.3, Fig. 5.12)
 run bed default-N$n_std --particles $n_std
-run damper damper-N$n_std --particles $n_std
+run damper damper-N$n_std --particles $n_std --out "$out/damper-N$n_std"
 # §3.4, Figs. 3.5–3.7: the second-order tilt term (Eq. (3.2)), with the standard friction
 # coefficients and with μ_s = μ_d = 0.8, against the first-order default-N… above (5.63 mm/s)
 run bed tilt2-N$n_std --particles $n_std --tilt-order second
