@@ -73,5 +73,7 @@ for a in 0.5 0.6 0.75; do
       --mixing-ratio $r --piston-speed 1mm/s
   done
 done
+# keep the damper's figures and tables; its particle files (megabytes) are not needed here
+find "$out" -path '*/snapshots/*' -type f ! -name '*.png' -delete
 bash studies/report-bed.sh "$out" > "results/reproduction/bed$suffix.md"
 echo "wrote results/reproduction/bed$suffix.md"
