@@ -352,3 +352,19 @@ EOF
 if [ -f "$dir/damper-N$n_std/damper_fall_fit.png" ]; then
   printf '\n![](%s/damper-N%s/damper_fall_fit.png)\n' "$(basename "$dir")" "$n_std"
 fi
+cat <<EOF
+
+## Run times of this report's cases
+
+Wall time of every run (2 cores shared with other jobs; load average 8–11 during the full run of
+this session, so these are upper bounds), its steps and status:
+
+| case | wall (s) | steps | status |
+|---|---|---|---|
+EOF
+for f in "$dir"/*.json; do
+  c=$(basename "$f" .json)
+  echo "| $c | $(m "$c" wall_time_s %.1f) | $(m "$c" steps %.0f) | $(m "$c" status %s) |"
+done
+echo
+echo "Total: $(jq -s 'map(.wall_time_s) | add' "$dir"/*.json | xargs printf %.0f) s of wall time over $(ls "$dir"/*.json | wc -l) runs."
