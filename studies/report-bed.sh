@@ -68,7 +68,7 @@ $($quick && printf '\n**Quick mode** (CI size: N = 92 and 184, two seeds, N = 10
 | claim | source | magopt | case | verdict |
 |---|---|---|---|---|
 | standard 368-disc cycle, O(N²) (§5 opening; §5.1.1) | ≈ 18 h | $(m exact-N$n_std-s1 wall_time_s %.0f) s wall, exact sums, N = $n_std, 8.33 mm/s ($(m exact-N$n_std-s1 steps %.0f) steps) | exact-N$n_std-s1 | $(awk -v w="$(m exact-N$n_std-s1 wall_time_s %.6g)" -v n="$n_std" 'BEGIN { if (w == "–") print "not run"; else if (n != 368) print "other N"; else printf "%.0f times faster: the same sums; code, machine and time step differ (the source states neither its step nor its machine)", 18 * 3600 / w }') |
-| the source's Verlet lists, r_v = 11.26 D ("a couple of hours", §5.1.1) | 86 % less than 18 h | $(m sv11.26-N$n_std-s1 wall_time_s %.0f) s wall (source-verlet) | sv11.26-N$n_std-s1 | – |
+| the source's Verlet lists, r_v = 11.26 D ("a couple of hours", §5.1.1) | 86 % less than 18 h | $(m sv11.26-N$n_std-s1 wall_time_s %.0f) s wall (source-verlet) | sv11.26-N$n_std-s1 | $(ratio "$(mean sv11.26-N$n_std wall_time_s)" "$(mean exact-N$n_std wall_time_s)") of the exact runs' mean wall time (source: 0.14) |
 | default cycle with lists under the source's protocol (issue 13: < 60 s on 2 cores) | – | $(m default-N$n_std wall_time_s %.1f) s wall, F_max $(m default-N$n_std max_piston_force_N) N (5.63 mm/s, r_c = 7.13 D, r_v = 8 D) | default-N$n_std | $(awk -v t="$(m default-N$n_std wall_time_s %.1f)" 'BEGIN { if (t == "–") print "not run"; else if (t < 60) print "under 60 s"; else print "over 60 s on this loaded machine" }') |
 
 ## Table 3.1: mean inter-particle distance D̂ over the cycle (exact sums, 8.33 mm/s, seed 1)
