@@ -10,19 +10,20 @@
 # results/reproduction/bed[-quick].md. A case whose record exists is not run again (delete the
 # directory for a fresh run), so an interrupted full run resumes; the report marks cases not
 # run. The cases run in order of priority: the speed, damper and friction cases, Tables 3.2/5.2 and 3.1,
-# Fig. 5.2, then the bi-disperse beds.
+# Fig. 5.2, the bi-disperse beds, then the 10-seed sweep of Fig. 3.3a (its spread needs python3
+# with pyarrow: scripts/force-spread.py).
 set -euo pipefail
 mode=${1:-full}
 bin=${MAGOPT:-target/release/magopt}
 [ -x "$bin" ] || cargo build --release --locked
 if [ "$mode" = "--quick" ]; then
   suffix=-quick; n_std=92; table31="92 184"; table52="92 184"; seeds="1 2"
-  radii="6.26 11.26"; n_bi=100; ratios="0 0.5 1"
+  radii="6.26 11.26"; n_bi=100; ratios="0 0.5 1"; seeds10=studies/quick/bed-initial-conditions.toml
 else
   suffix=; n_std=368; table31="92 184 276 368 460 552 644 736"
   table52="368 460 552 644 736"; seeds="1 2 3"
   radii="6.26 7.26 8.26 9.26 10.26 11.26 12.26"; n_bi=400
-  ratios="0 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1"
+  ratios="0 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1"; seeds10=studies/bed-initial-conditions.toml
 fi
 out=results/reproduction/bed-runs$suffix
 mkdir -p "$out"
@@ -73,6 +74,14 @@ for a in 0.5 0.6 0.75; do
       --mixing-ratio $r --piston-speed 1mm/s
   done
 done
+# Fig. 3.3a inset: the force's spread over 10 seeds (5.63 mm/s), from the sweep's series
+if [ ! -s "$out/initial-conditions/series.parquet" ]; then
+  "$bin" sweep "$seeds10" --out "$out/initial-conditions" > /dev/null
+  rm -rf "$out/initial-conditions/runs" # per-run records (megabytes); the tables hold the data
+fi
+python3 scripts/force-spread.py "$out/initial-conditions" > "$out/force-spread.json.part" &&
+  mv "$out/force-spread.json.part" "$out/force-spread.json" ||
+  echo "force spread not computed (scripts/force-spread.py needs python3 with pyarrow)" >&2
 # keep the damper's figures and tables; its particle files (megabytes) are not needed here
 find "$out" -path '*/snapshots/*' -type f ! -name '*.png' -delete
 bash studies/report-bed.sh "$out" > "results/reproduction/bed$suffix.md"
