@@ -2,7 +2,7 @@
 //! Ψ6, hexagon regularity and cells counted at compression start, maximum compression and end;
 //! they equal `analysis::structure::analyze` on the written snapshots; a bed without counted
 //! cells leaves them None; the study model lists them. A damper run fits its second motion with
-//! both oscillators.
+//! both oscillators, and its first fall in the source's normalization.
 
 use magopt::analysis::snapshot::Snapshot as AnalysisSnapshot;
 use magopt::analysis::structure::analyze;
@@ -173,4 +173,19 @@ fn damper_motion_is_fitted_by_both_oscillators() {
             "{name}: {a} vs {b} (σ {sigma})"
         );
     }
+    // The first fall in the source's units (de Paula 2025, Fig. 5.12): z starts at 1, and the
+    // equilibrium g0/ω² of the fitted Eq. (5.12) is the measured rest height over z(0).
+    let fall = o.damper_fall_fit.as_ref().expect("first-fall fit");
+    assert!((fall.height[0] - 1.0).abs() < 1e-12);
+    let v = &fall.van_der_pol;
+    let equilibrium = v.param("g0") / v.param("omega").powi(2);
+    let z_rest = rest / fall.height_unit;
+    assert!(
+        (equilibrium / z_rest - 1.0).abs() < 0.05,
+        "{equilibrium} vs {z_rest}"
+    );
+    assert_eq!(
+        metric(&metrics, "damper_fall_vdp_alpha"),
+        Some(v.param("alpha"))
+    );
 }

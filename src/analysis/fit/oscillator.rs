@@ -137,6 +137,26 @@ pub fn fit_oscillator(
     z: &[f64],
     settings: &OscillatorSettings,
 ) -> Result<Fit> {
+    match kind {
+        Oscillator::Linear => fit_checked_linear(t, z, settings),
+        Oscillator::VanDerPol => Ok(fit_both_oscillators(t, z, settings)?.1),
+    }
+}
+
+/// Both fits of the same samples, (linear, Van der Pol-like), the linear one computed once
+/// (it is the Van der Pol-like fit's start). Errors as [`fit_oscillator`].
+pub fn fit_both_oscillators(
+    t: &[f64],
+    z: &[f64],
+    settings: &OscillatorSettings,
+) -> Result<(Fit, Fit)> {
+    let linear = fit_checked_linear(t, z, settings)?;
+    let van_der_pol = fit_van_der_pol(t, z, settings, &linear);
+    Ok((linear, van_der_pol))
+}
+
+/// Checks the samples and settings, then fits the linear oscillator.
+fn fit_checked_linear(t: &[f64], z: &[f64], settings: &OscillatorSettings) -> Result<Fit> {
     check_data("oscillator", t, z, 8)?;
     if let Some(k) = (1..t.len()).find(|k| t[*k] <= t[k - 1]) {
         return Err(Error::input(format!(
@@ -149,12 +169,7 @@ pub fn fit_oscillator(
     if settings.substeps == 0 {
         return Err(Error::input("oscillator fit: substeps must be ≥ 1"));
     }
-    let linear = fit_linear_oscillator(t, z, settings);
-    let fit = match kind {
-        Oscillator::Linear => linear,
-        Oscillator::VanDerPol => fit_van_der_pol(t, z, settings, &linear),
-    };
-    Ok(fit)
+    Ok(fit_linear_oscillator(t, z, settings))
 }
 
 fn fit_linear_oscillator(t: &[f64], z: &[f64], settings: &OscillatorSettings) -> Fit {

@@ -2,11 +2,14 @@
 //! body of mass M, is released and falls under gravity onto the bed (particles damped
 //! viscously, plus dry friction if the friction model has it), comes to rest, is nudged up by
 //! 0.2 D_1 and released again. The first fall ends when the piston rests (speed < 1e-4 m/s,
-//! bed force within 1 % of its weight; at most 20 `damper_time`s, else a failed run). The output is the second motion z(t): series `piston_height`
+//! bed force within 1 % of its weight; at most 20 `damper_time`s, else a failed run). The outputs
+//! are the first fall z(t) (series `piston_fall_z`, time from the first release), fitted in the
+//! source's normalization (`damper_fall_fit`), and the second motion z(t): series `piston_z`
 //! and `piston_displacement` (z − z_rest), time measured from the second release. A piston
 //! heavy enough to crush the bed (discs closer than the allowed ratio, a centre through the
 //! piston) is a failed run.
 
+use super::damper_fall_fit::{fit_first_fall, FALL_FIT_SAMPLES, SERIES as FALL_SERIES};
 use super::damper_fit::{fit_damper, FIT_SAMPLES};
 use super::integrator::{half_kick, kick_and_drift, Kick};
 use super::protocol::{recorded, Simulation};
@@ -49,6 +52,10 @@ pub fn damper(sim: &mut Simulation, out: &mut BedOutcome) -> Result<(), String> 
             REST_FORCE
         ));
     }
+    match fit_first_fall(&sim.series, p.gravity, FALL_FIT_SAMPLES) {
+        Ok(fit) => out.damper_fall_fit = Some(fit),
+        Err(e) => out.warnings.push(format!("first-fall fit failed: {e}")),
+    }
     let rest = sim.state.piston;
     out.damper_rest_height = Some(rest);
     sim.moment("rest", out);
@@ -79,8 +86,9 @@ const REST_FORCE: f64 = 1e-2;
 /// it may last this many `damper_time`s.
 pub const REST_LIMIT: f64 = 20.0;
 
-/// Without `rest`: the first fall, until the piston rests (returns whether it did). With
-/// `rest`: the second motion for `damper_time`, recording z(t) from the release.
+/// Without `rest`: the first fall, until the piston rests (returns whether it did), recording
+/// z(t) as `piston_fall_z`. With `rest`: the second motion for `damper_time`, recording z(t)
+/// from the release.
 fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<bool, String> {
     let kick = Kick::of(sim.params, true);
     let limit = if rest.is_some() { 1.0 } else { REST_LIMIT };
@@ -90,6 +98,10 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
     );
     let weight = piston.mass * piston.gravity;
     let mut next_record = start;
+    if rest.is_none() {
+        sim.series.push(FALL_SERIES, 0.0, sim.state.piston);
+        next_record += sim.params.damper_record_interval;
+    }
     while end - sim.state.time > 1e-12 * end.max(1.0) {
         let omega2 = sim
             .field
@@ -123,13 +135,16 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
         if rest.is_none() && resting && sim.state.time - start > 0.1 * sim.params.damper_time {
             return Ok(true);
         }
-        if let Some(rest) = rest {
-            if sim.state.time >= next_record {
-                let (t, z) = (sim.state.time - start, sim.state.piston);
-                sim.series.push("piston_z", t, z);
-                sim.series.push("piston_displacement", t, z - rest);
-                next_record = sim.state.time + sim.params.damper_record_interval;
+        if sim.state.time >= next_record {
+            let (t, z) = (sim.state.time - start, sim.state.piston);
+            match rest {
+                Some(rest) => {
+                    sim.series.push("piston_z", t, z);
+                    sim.series.push("piston_displacement", t, z - rest);
+                }
+                None => sim.series.push(FALL_SERIES, t, z),
             }
+            next_record = sim.state.time + sim.params.damper_record_interval;
         }
     }
     Ok(rest.is_some())

@@ -1,6 +1,6 @@
 //! Fits of the damper's second motion z(t) (spec bed.md "Damper", analysis.md "Fits"): the
 //! Van der Pol-like z'' + 2α (z² − 2z) z' + ω² z = g0 and the linear damped oscillator
-//! z'' + 2λ z' + ω² z = g, both by [`fit_oscillator`] (RK4 inside the objective).
+//! z'' + 2λ z' + ω² z = g, both by [`fit_both_oscillators`] (RK4 inside the objective).
 //!
 //! Length unit: the Van der Pol-like equation is not dimensionally homogeneous (z² − 2z), and
 //! the source does not state its unit, so both fits take z in units of the reference diameter
@@ -10,7 +10,7 @@
 //! a linear damper, which the two residuals show.
 
 use super::Series;
-use crate::analysis::fit::oscillator::{fit_oscillator, Oscillator, OscillatorSettings};
+use crate::analysis::fit::oscillator::{fit_both_oscillators, OscillatorSettings};
 use crate::analysis::fit::Fit;
 use crate::output::plot::{Figure, Series as PlotSeries, SeriesStyle};
 use crate::Result;
@@ -55,7 +55,7 @@ pub const FIT_SAMPLES: usize = 400;
 /// `length_unit` (m).
 ///
 /// # Errors
-/// Too few or bad samples (see [`fit_oscillator`]).
+/// Too few or bad samples (see [`fit_both_oscillators`]).
 pub fn fit_damper(
     series: &Series,
     rest: f64,
@@ -66,9 +66,7 @@ pub fn fit_damper(
     let every = samples.len().div_ceil(max_samples.max(1)).max(1);
     let (time, height): (Vec<f64>, Vec<f64>) = samples.iter().step_by(every).copied().unzip();
     let z: Vec<f64> = height.iter().map(|h| h / length_unit).collect();
-    let settings = OscillatorSettings::default();
-    let linear = fit_oscillator(Oscillator::Linear, &time, &z, &settings)?;
-    let van_der_pol = fit_oscillator(Oscillator::VanDerPol, &time, &z, &settings)?;
+    let (linear, van_der_pol) = fit_both_oscillators(&time, &z, &OscillatorSettings::default())?;
     let amplitude = height.iter().map(|h| (h - rest).abs()).fold(0.0, f64::max);
     Ok(DamperFits {
         length_unit,

@@ -6,10 +6,12 @@
 //! - `forces`: B1 pairs, B2 walls, gravity, the B4 normal force (exact, cell or Verlet lists);
 //! - `integrator`: Störmer–Verlet with exact viscous and semi-implicit dry friction, Δt rule;
 //! - `protocol`: relaxation, compression, expansion; `damper`: the free-falling piston;
+//!   `damper_fit`, `damper_fall_fit`: its oscillator fits;
 //! - `observables`: φ, D̂, distances, snapshots (particle files); `report`: figures;
 //! - `study`: `bed` and `damper` as study models.
 
 pub mod damper;
+pub mod damper_fall_fit;
 pub mod damper_fit;
 pub mod forces;
 pub mod integrator;
@@ -100,6 +102,8 @@ pub struct BedOutcome {
     /// Damper: both oscillator fits of the second motion (None for a cycle, a failed run or a
     /// failed fit, then see `warnings`).
     pub damper_fits: Option<damper_fit::DamperFits>,
+    /// Damper: the first fall fitted in the source's normalization (None as `damper_fits`).
+    pub damper_fall_fit: Option<damper_fall_fit::FallFit>,
     /// Problems that leave the run valid (e.g. a structure analysis that failed).
     pub warnings: Vec<String>,
     /// Wall-clock time, s.
@@ -181,6 +185,13 @@ impl BedOutcome {
             .map(damper_fit::DamperFits::values);
         for (j, name) in damper_fit::METRICS.iter().enumerate() {
             metrics.push((*name, fits.and_then(|f| finite(f[j]))));
+        }
+        let fall = self
+            .damper_fall_fit
+            .as_ref()
+            .map(damper_fall_fit::FallFit::values);
+        for (j, name) in damper_fall_fit::METRICS.iter().enumerate() {
+            metrics.push((*name, fall.and_then(|f| finite(f[j]))));
         }
         for (k, names) in STRUCTURE_METRICS.iter().enumerate() {
             let m = self.structure[k].as_ref();

@@ -59,11 +59,15 @@ impl BedModel {
         }
     }
 
-    /// The damper fits and the cycle figures (the particle frames are written as the run goes).
+    /// The damper fits (second motion, first fall) and the cycle figures (the particle frames are written as the run goes).
     fn write_artifacts(&self, o: &BedOutcome, dir: &Path) -> Result<()> {
         if let Some(fits) = &o.damper_fits {
             atomic::write_json_atomic(&dir.join("damper_fits.json"), &fits.json())?;
             plot::render_png(&dir.join("damper_fits.png"), &fits.figure())?;
+        }
+        if let Some(fall) = &o.damper_fall_fit {
+            atomic::write_json_atomic(&dir.join("damper_fall_fit.json"), &fall.json())?;
+            plot::render_png(&dir.join("damper_fall_fit.png"), &fall.figure())?;
         }
         if !self.damper && o.failure.is_none() {
             for (stem, figure) in cycle_figures(o) {
@@ -599,6 +603,10 @@ const SERIES: &[(&str, &str)] = &[
         "local area fraction, band 10 of 10 from the floor",
     ),
     ("piston_z", "damper piston height z (m)"),
+    (
+        "piston_fall_z",
+        "damper piston height z in the first fall (m)",
+    ),
     ("piston_displacement", "damper z − z_rest (m)"),
 ];
 
