@@ -76,8 +76,8 @@ for c in none contact bonds; do
   run dense-$c-1s --particles $dense --energy "$(energy $dense)" --duration 1s --samples 20 \
     --interactions $what
 done
-# the weak readings (area, volume) to 1 s with the exact sum (the all-pairs kernel: minutes)
-for basis in area volume; do
+# the mass, area and volume readings to 1 s with the exact sum (the all-pairs kernel: minutes)
+for basis in mass area volume; do
   run dense-nf-$basis-1s --particles $dense --energy "$(energy $dense)" --duration 1s \
     --samples 20 --interactions all --near-field-basis $basis
 done
