@@ -183,17 +183,22 @@ impl Coordinates {
         on_second: &mut [[f64; TILE]; 3],
         b: usize,
     ) {
-        let f = pair_term(
-            self.x[j] - self.x[i],
-            self.y[j] - self.y[i],
-            self.z[j] - self.z[i],
-            a1,
-            a2,
-        );
+        let f = self.term(i, j, (a1, a2));
         for c in 0..3 {
             acc[c][l] += self.sign[j] * f[c];
             on_second[c][b] -= self.sign[i] * f[c];
         }
+    }
+
+    /// f(r_j − r_i) = d (α1/r² − α2/r³), the pair's force on i before the signs.
+    #[inline(always)]
+    fn term(&self, i: usize, j: usize, (a1, a2): (f64, f64)) -> [f64; 3] {
+        let d = [
+            self.x[j] - self.x[i],
+            self.y[j] - self.y[i],
+            self.z[j] - self.z[i],
+        ];
+        pair_term(d[0], d[1], d[2], a1, a2)
     }
 
     /// Particle i's (slot a of the first tile) sums: its lanes' `sums` plus the partners
@@ -212,13 +217,7 @@ impl Coordinates {
     ) {
         for b in body..second.len() {
             let j = second.start + b;
-            let f = pair_term(
-                self.x[j] - self.x[i],
-                self.y[j] - self.y[i],
-                self.z[j] - self.z[i],
-                a1,
-                a2,
-            );
+            let f = self.term(i, j, (a1, a2));
             for c in 0..3 {
                 sums[c] += self.sign[j] * f[c];
                 pair.on_second[c][b] -= self.sign[i] * f[c];
