@@ -12,7 +12,7 @@ use crate::Result;
 pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
     let model = BedModel::cycle();
     println!(
-        "bed: mono-disperse cycle (dry friction, φ 0.12 → 0.34 → 0.12), piston {}",
+        "bed: mono-disperse cycle (dry friction, the source protocol's heights: docs/bed-protocol.md), piston {}",
         args.velocity
     );
     println!(
