@@ -378,8 +378,9 @@ fn force_histograms(
                 continue;
             };
             let sp: Vec<i64> = s.species.iter().map(|&k| k as i64).collect();
-            for d in force_distributions(&s.force, &sp)? {
-                for (f, k) in s.force.iter().zip(&sp).filter(|(_, k)| **k == d.species) {
+            let force = s.force_magnitude();
+            for d in force_distributions(&force, &sp)? {
+                for (f, k) in force.iter().zip(&sp).filter(|(_, k)| **k == d.species) {
                     forces.push(f / d.mean);
                     species.push(*k);
                 }

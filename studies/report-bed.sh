@@ -228,7 +228,7 @@ for r in 6.26 7.26 8.26 9.26 10.26 11.26 12.26; do
 done
 echo "| exact | $(ms exact-N$n_std max_piston_force_N %.2f) | $(printf %.0f "${exact_wall:-0}") | 1 | – | $(failed exact-N$n_std) |"
 inside=$(for r in 6.26 7.26 8.26 9.26 10.26 11.26 12.26; do
-  f=$(mean sv$r-N$n_std max_piston_force_N); [ -n "$f" ] && echo "$r $f"; done |
+  f=$(mean sv$r-N$n_std max_piston_force_N); if [ -n "$f" ]; then echo "$r $f"; fi; done |
   awk -v e="$(mean exact-N$n_std max_piston_force_N)" -v d="$(sd exact-N$n_std max_piston_force_N)" \
   'e != "" && $2 >= e - d && $2 <= e + d { print $1; exit }')
 if [ -n "$inside" ]; then
@@ -342,6 +342,46 @@ delta=$(awk -v x="$(m bi-a0.75-R0.5 min_piston_distance_m %.6g)" -v y="$(m bi-a0
 if [ -n "$delta" ]; then printf '\nVerdict: %s.\n' "$delta"; fi
 else
   printf '\n## Part II: bi-disperse beds (Table A.1 heights, 1 mm/s)\n\nNot reached by this run (N = 400 planned); the quick report (bed-quick.md) has them at N = 100.\n'
+fi
+# am CASE JQ [FORMAT]: a value of CASE-analysis.json (`magopt analyze --json` at maximum
+# compression), "–" where missing
+am() {
+  local v=null
+  [ -s "$dir/$1-analysis.json" ] && v=$(jq -r "$2" "$dir/$1-analysis.json")
+  if [ "$v" = null ]; then echo "–"; else printf "${3:-%.3f}" "$v"; fi
+}
+if [ -s "$dir/forces-a0.6-R0.5-analysis.json" ]; then
+  n_forces=$(jq -r '.parameters.particles' "$dir/forces-a0.6-R0.5.json")
+  cat <<EOF
+
+## §4.3.6, Figs. 4.23–4.24: magnetic force vectors and their fluctuations (a = 0.6, N = $n_forces, 1 mm/s)
+
+The source draws, at maximum compression of the standard bi-disperse system (a = 0.6, dry
+friction) for R = 0.25, 0.5, 0.75, the resulting magnetic force on each particle (pairs and
+walls, no gravity) as arrows normalized per species (Fig. 4.23) and |F − F̄_s|/F̄_s
+(Eq. (4.35)) as colours (Fig. 4.24), and reads both by eye: "no preferred direction", "no
+pattern on the coloring", hence no force chains. magopt draws the same maps (\`magopt bed
+--preset bidisperse --particles $n_forces --aspect-ratio 0.6 --mixing-ratio R --piston-speed
+1mm/s --out DIR\`, then \`magopt analyze DIR/snapshots/max-compression.parquet --out
+DIR/analysis\`: force_vectors.png, fluctuations.png) and puts the two readings on a scale over
+the counted Voronoi cells: S = |⟨e^{2iθ}⟩| of the force directions (0 isotropic, 1 all along
+one axis) and Pearson's r of Eq. (4.35) between Voronoi neighbours (0: no spatial pattern). A
+force chain, a line of particles carrying more than the mean, raises both.
+
+| R | S (its axis from +x) | neighbour r of Eq. (4.35) (pairs) | mean force per species (N) | case |
+|---|---|---|---|---|
+EOF
+  for r in 0.25 0.5 0.75; do
+    c=forces-a0.6-R$r
+    echo "| $r | $(am $c .force_chains.direction_order) ($(am $c .force_chains.direction_axis_deg %.0f)°) | $(am $c .force_chains.fluctuation_neighbor_correlation) ($(am $c .force_chains.neighbor_pairs %d)) | $(am $c '[.forces[] | "\(.species): \(.mean * 1000 | round / 1000)"] | join(", ")' %s) | $c |"
+  done
+  cat <<EOF
+
+![](${dir#results/reproduction/}/forces-a0.6-R0.5/analysis/force_vectors.png)
+![](${dir#results/reproduction/}/forces-a0.6-R0.5/analysis/fluctuations.png)
+
+FORCE_VERDICT
+EOF
 fi
 cat <<EOF
 

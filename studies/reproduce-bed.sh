@@ -10,7 +10,7 @@
 # results/reproduction/bed[-quick].md. A case whose record exists is not run again (delete the
 # directory for a fresh run), so an interrupted full run resumes; the report marks cases not
 # run. The cases run in order of priority: the speed, damper and friction cases, Tables 3.2/5.2 and 3.1,
-# Fig. 5.2, the bi-disperse beds, then the 10-seed sweep of Fig. 3.3a (its spread needs python3
+# Fig. 5.2, the force maps, the bi-disperse beds, then the 10-seed sweep of Fig. 3.3a (its spread needs python3
 # with pyarrow: scripts/force-spread.py).
 set -euo pipefail
 mode=${1:-full}
@@ -65,6 +65,18 @@ for r in $radii; do
       --list-radius $r --rebuild-skin 4.13 "${std[@]}"
   done
 done
+# Figs. 4.23–4.24: magnetic force vectors and their fluctuations at maximum compression, the
+# standard bi-disperse system (a = 0.6, dry friction) at R = 0.25, 0.5, 0.75 (magopt analyze on
+# the run's snapshot: force_vectors.png, fluctuations.png and the force-chain measures)
+for r in 0.25 0.5 0.75; do
+  c=forces-a0.6-R$r
+  run bed $c --preset bidisperse --particles $n_bi --aspect-ratio 0.6 --mixing-ratio $r \
+    --piston-speed 1mm/s --out "$out/$c"
+  [ -s "$out/$c-analysis.json" ] || { "$bin" analyze "$out/$c/snapshots/max-compression.parquet" \
+    --out "$out/$c/analysis" --json > "$out/$c-analysis.part" && mv "$out/$c-analysis.part" \
+    "$out/$c-analysis.json"; }
+  rm -rf "$out/$c/runs" # the run's record (megabytes); $c.json and the tables hold the data
+done
 # Part II: bi-disperse beds at Table A.1's heights (H0 = H, φ_max = 0.34: the bidisperse
 # preset's source heights) and speed V_c = 1 mm/s; R = 0 is the a = 1 bed of Table 4.6
 for a in 0.5 0.6 0.75; do
@@ -82,7 +94,8 @@ fi
 python3 scripts/force-spread.py "$out/initial-conditions" > "$out/force-spread.json.part" &&
   mv "$out/force-spread.json.part" "$out/force-spread.json" ||
   echo "force spread not computed (scripts/force-spread.py needs python3 with pyarrow)" >&2
-# keep the damper's figures and tables; its particle files (megabytes) are not needed here
-find "$out" -path '*/snapshots/*' -type f ! -name '*.png' -delete
+# keep the runs' figures and tables, and the snapshot at maximum compression (kilobytes: the
+# force maps are analysed from it); the other particle files (megabytes) are not needed here
+find "$out" -path '*/snapshots/*' -type f ! -name '*.png' ! -name max-compression.parquet -delete
 bash studies/report-bed.sh "$out" > "results/reproduction/bed$suffix.md"
 echo "wrote results/reproduction/bed$suffix.md"

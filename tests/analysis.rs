@@ -372,3 +372,50 @@ fn analyze_command_bad_input_exits_2_with_one_line() {
     assert_eq!(code, 2, "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A force vector (`force_x`, `force_y`) gives the magnitudes, the force-chain measures and the
+/// arrow map; all forces along one axis are fully ordered (S = 1); half a vector is an input
+/// error.
+#[test]
+fn analyze_command_reads_force_vectors() {
+    use magopt::output::table::{write_parquet, ColumnData, Table};
+    let pts = triangular(12, 12, 1e-3);
+    let n = pts.len();
+    let fx: Vec<f64> = (0..n)
+        .map(|i| if i % 2 == 0 { 3.0 } else { -4.0 })
+        .collect();
+    let table = Table::new()
+        .with("x", ColumnData::F64(pts.iter().map(|p| p.x).collect()))
+        .with("y", ColumnData::F64(pts.iter().map(|p| p.y).collect()))
+        .with("force_x", ColumnData::F64(fx))
+        .with("force_y", ColumnData::F64(vec![0.0; n]));
+    let dir = temp_dir("vectors");
+    let file = dir.join("snapshot.parquet");
+    write_parquet(&file, &table).unwrap();
+    let out = dir.join("result");
+    let (code, stdout, stderr) = magopt(&[
+        "analyze",
+        file.to_str().unwrap(),
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert!((v["forces"][0]["mean"].as_f64().unwrap() - 3.5).abs() < 1e-12);
+    let chains = &v["force_chains"];
+    assert!((chains["direction_order"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert!(chains["neighbor_pairs"].as_u64().unwrap() > 400);
+    assert!(out.join("force_vectors.png").is_file());
+
+    let half = Table::new()
+        .with("x", ColumnData::F64(pts.iter().map(|p| p.x).collect()))
+        .with("y", ColumnData::F64(pts.iter().map(|p| p.y).collect()))
+        .with("force_x", ColumnData::F64(vec![1.0; n]));
+    write_parquet(&file, &half).unwrap();
+    let (code, _, stderr) = magopt(&["analyze", file.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 2);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("'force_x' and 'force_y'"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -14,6 +14,7 @@
 
 pub mod distribution;
 pub mod fit;
+pub mod force_chain;
 pub mod pair;
 pub mod picture;
 pub mod report;

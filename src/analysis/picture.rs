@@ -1,9 +1,12 @@
 //! Pictures of a 2D snapshot: Voronoi cells coloured by side count (hexagons shaded by their
-//! regularity), particles coloured by force or by its relative fluctuation, force PDFs.
+//! regularity), particles coloured by force or by its relative fluctuation, force vectors as
+//! arrows, force PDFs.
 
 use std::path::Path;
 
 use super::distribution::SpeciesForces;
+use nalgebra::Vector2;
+
 use super::snapshot::Snapshot;
 use super::structure::Structure;
 use super::voronoi::Cell;
@@ -175,6 +178,85 @@ pub fn value_picture(
         }),
     };
     render_canvas_png(path, &canvas, WIDTH)
+}
+
+/// Species colours of the arrows (cycled).
+const SPECIES: [Rgb; 4] = [(30, 90, 200), (215, 60, 40), (40, 150, 60), (150, 80, 170)];
+
+/// Force vectors as arrows from the particle centres (de Paula 2025, Fig. 4.23): each species'
+/// arrows scaled by its largest force in the snapshot, the largest one mean neighbour distance
+/// long; particles as grey discs, arrows only for particles of counted cells (the source
+/// draws those inside its Voronoi box).
+pub fn force_vector_picture(
+    path: &Path,
+    snapshot: &Snapshot,
+    structure: &Structure,
+    force: &[Vector2<f64>],
+) -> Result<()> {
+    let species = snapshot.species_or_zero();
+    let largest = |s: i64| {
+        force
+            .iter()
+            .zip(&species)
+            .filter(|(_, k)| **k == s)
+            .fold(0.0, |a: f64, (f, _)| a.max(f.norm()))
+    };
+    let length = mean_bond(snapshot, structure);
+    let r = radii(snapshot, structure, 0.3);
+    let mut shapes: Vec<Shape> = (snapshot.positions.iter().zip(&r))
+        .map(|(p, r)| Shape::Circle {
+            centre: (p.x, p.y),
+            radius: *r,
+            fill: (215, 215, 215),
+        })
+        .collect();
+    let cells = &structure.tessellation.cells;
+    for (k, (p, f)) in snapshot.positions.iter().zip(force).enumerate() {
+        let scale = largest(species[k]);
+        if cells[k].counted && scale > 0.0 {
+            let colour = SPECIES[species[k].rem_euclid(SPECIES.len() as i64) as usize];
+            shapes.push(arrow(*p, f * (length / scale), colour));
+        }
+    }
+    let mut kinds = species.clone();
+    kinds.sort_unstable();
+    kinds.dedup();
+    let legend = kinds
+        .iter()
+        .map(|s| {
+            let colour = SPECIES[s.rem_euclid(SPECIES.len() as i64) as usize];
+            (format!("species {s}: {:.3e} N", largest(*s)), colour)
+        })
+        .collect();
+    let canvas = Canvas {
+        title: "Force vectors, per species over its largest force".into(),
+        x_label: "x (m)".into(),
+        y_label: "y (m)".into(),
+        shapes,
+        legend,
+        color_bar: None,
+    };
+    render_canvas_png(path, &canvas, WIDTH)
+}
+
+/// An arrow from `tail` along `v`: shaft and two barbs of a quarter of its length at ±25°.
+fn arrow(tail: Vector2<f64>, v: Vector2<f64>, stroke: Rgb) -> Shape {
+    let tip = tail + v;
+    let barb = |angle: f64| {
+        let (s, c) = angle.to_radians().sin_cos();
+        let b = -0.25 * Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y);
+        (tip.x + b.x, tip.y + b.y)
+    };
+    Shape::Path {
+        points: vec![
+            (tail.x, tail.y),
+            (tip.x, tip.y),
+            barb(25.0),
+            (tip.x, tip.y),
+            barb(-25.0),
+        ],
+        stroke,
+    }
 }
 
 /// Force PDFs, one line per species, against the bin centres.

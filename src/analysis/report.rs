@@ -4,8 +4,9 @@
 use std::path::Path;
 
 use super::distribution::{force_distributions, relative_fluctuations, SpeciesForces};
+use super::force_chain::{force_chain_metrics, ForceChainMetrics};
 use super::pair::{coordination, radial_distribution, RadialDistribution};
-use super::picture::{cells_picture, force_pdf_figure, value_picture};
+use super::picture::{cells_picture, force_pdf_figure, force_vector_picture, value_picture};
 use super::snapshot::{FrameInfo, Snapshot};
 use super::structure::{analyze_full, modulus, Structure, StructureMetrics};
 use super::voronoi::TessellationSettings;
@@ -52,6 +53,9 @@ pub struct SnapshotSummary {
     pub coordination_mean: Option<f64>,
     /// Per-species force distributions (needs forces).
     pub forces: Option<Vec<SpeciesForces>>,
+    /// Force direction order and neighbour correlation of the fluctuations (needs force
+    /// vectors).
+    pub force_chains: Option<ForceChainMetrics>,
     /// Radial distribution function (with `rdf_max`).
     pub rdf: Option<RadialDistribution>,
 }
@@ -100,6 +104,10 @@ pub fn analyze_snapshot(
         ),
         None => (None, None),
     };
+    let force_chains = match (&snapshot.force_vector, &fluctuations) {
+        (Some(v), Some(fl)) => Some(force_chain_metrics(&snapshot.positions, v, fl, cells)),
+        _ => None,
+    };
     let rdf = match options.rdf_max {
         Some(r) => Some(radial_distribution(
             &snapshot.positions,
@@ -113,6 +121,7 @@ pub fn analyze_snapshot(
             metrics: structure.metrics.clone(),
             coordination_mean,
             forces,
+            force_chains,
             rdf,
         },
         structure,
@@ -285,7 +294,8 @@ fn force_pdf_table(forces: &[SpeciesForces]) -> Table {
 }
 
 /// Writes into `dir`: summary.json, cells.parquet, cell_vertices.parquet, particles.parquet,
-/// cells.png; with forces force_pdf.parquet, force_pdf.png, forces.png and fluctuations.png;
+/// cells.png; with forces force_pdf.parquet, force_pdf.png, forces.png and fluctuations.png,
+/// with force vectors force_vectors.png;
 /// with g(r) rdf.parquet. summary.json and every table record the magopt version and the
 /// input (`source`: path, format, size, frame) — the tables as Parquet key-value metadata
 /// `magopt.version` and `magopt.input` (JSON).
@@ -332,6 +342,9 @@ pub fn write_outputs(
             "Particles coloured by force",
             "force (N)",
         )?;
+        if let Some(v) = &snapshot.force_vector {
+            force_vector_picture(&dir.join("force_vectors.png"), snapshot, s, v)?;
+        }
         if let Some(fl) = &analysis.fluctuations {
             let title = "Relative force fluctuation |F − F̄_s| / F̄_s";
             value_picture(

@@ -1,7 +1,9 @@
 //! 2D snapshots as `magopt analyze` reads them: a Parquet or CSV table with columns `x`, `y`
-//! (m) and optional `diameter` (m), `species` (integer) and `force` (N); or the particle table
-//! the bed model writes ([`crate::output::particles`]): `x_m`, `y_m`, optional `radius_m` (m),
-//! `type` (1-based, species = type − 1) and `force_magnitude_N` (N). Other columns (e.g.
+//! (m) and optional `diameter` (m), `species` (integer), `force` (N) and the force vector
+//! `force_x`, `force_y` (N); or the particle table the bed model writes
+//! ([`crate::output::particles`]): `x_m`, `y_m`, optional `radius_m` (m), `type` (1-based,
+//! species = type − 1), `force_magnitude_N` and `magnetic_force_x_N`, `magnetic_force_y_N`
+//! (N). A force vector without a magnitude column gives the magnitude. Other columns (e.g.
 //! `vx`, `z_m`) are ignored. Extended XYZ and LAMMPS dump files as magopt writes them
 //! ([`crate::output::particles`]) are read too, one frame of them (see [`Snapshot::read_frame`]).
 
@@ -27,6 +29,8 @@ pub struct Snapshot {
     pub species: Option<Vec<i64>>,
     /// Force magnitudes (N), if the file has them.
     pub force: Option<Vec<f64>>,
+    /// Force vectors in the plane (N), if the file has them.
+    pub force_vector: Option<Vec<Vector2<f64>>>,
 }
 
 impl Snapshot {
@@ -112,13 +116,20 @@ impl Snapshot {
     }
 
     /// The 2D snapshot of a particle frame: x, y, diameter = 2 × radius, species = type − 1,
-    /// force from the scalar `force_magnitude` column if there is one.
+    /// force from the scalar `force_magnitude` column and the force vector from the vector
+    /// `magnetic_force`, where the frame has them.
     pub fn from_frame(frame: &ParticleFrame) -> Self {
         let force = frame.extra.iter().find_map(|p| match &p.values {
             Values::Scalar(v) if p.name == "force_magnitude" => Some(v.clone()),
             _ => None,
         });
-        Self {
+        let force_vector = frame.extra.iter().find_map(|p| match &p.values {
+            Values::Vector(v) if p.name == "magnetic_force" => {
+                Some(v.iter().map(|f| Vector2::new(f.x, f.y)).collect())
+            }
+            _ => None,
+        });
+        Self::with_vector(Self {
             positions: frame
                 .position
                 .iter()
@@ -127,7 +138,16 @@ impl Snapshot {
             diameter: Some(frame.radius.iter().map(|r| 2.0 * r).collect()),
             species: Some(frame.kind.iter().map(|k| i64::from(*k) - 1).collect()),
             force,
+            force_vector,
+        })
+    }
+
+    /// Fills a missing force magnitude from the force vector.
+    fn with_vector(mut self) -> Self {
+        if self.force.is_none() {
+            self.force = (self.force_vector.as_ref()).map(|v| v.iter().map(|f| f.norm()).collect());
         }
+        self
     }
 
     /// Takes the snapshot columns from a table. Numeric columns may be floats or integers;
@@ -140,7 +160,7 @@ impl Snapshot {
         let y = required(table, alias(table, "y", "y_m"))?;
         if let Some(kind) = optional(table, "type")? {
             let species = kind.iter().map(|t| *t as i64 - 1).collect();
-            return Ok(Self {
+            return Ok(Self::with_vector(Self {
                 positions: x
                     .iter()
                     .zip(&y)
@@ -149,7 +169,8 @@ impl Snapshot {
                 diameter: optional(table, "radius_m")?.map(|r| r.iter().map(|r| 2.0 * r).collect()),
                 species: Some(species),
                 force: optional(table, "force_magnitude_N")?,
-            });
+                force_vector: vector(table, "magnetic_force_x_N", "magnetic_force_y_N")?,
+            }));
         }
         let species = match table.column("species") {
             None => None,
@@ -165,7 +186,7 @@ impl Snapshot {
                 )))
             }
         };
-        Ok(Self {
+        Ok(Self::with_vector(Self {
             positions: x
                 .iter()
                 .zip(&y)
@@ -174,7 +195,8 @@ impl Snapshot {
             diameter: optional(table, "diameter")?,
             species,
             force: optional(table, "force")?,
-        })
+            force_vector: vector(table, "force_x", "force_y")?,
+        }))
     }
 
     /// Number of particles.
@@ -230,6 +252,25 @@ fn alias<'a>(table: &Table, old: &'a str, new: &'a str) -> &'a str {
         new
     } else {
         old
+    }
+}
+
+/// Two numeric columns as plane vectors; None if both are absent.
+///
+/// # Errors
+/// [`Error::Input`] if only one of them is there, or as [`optional`].
+fn vector(table: &Table, x: &str, y: &str) -> Result<Option<Vec<Vector2<f64>>>> {
+    match (optional(table, x)?, optional(table, y)?) {
+        (Some(a), Some(b)) => Ok(Some(
+            a.iter()
+                .zip(&b)
+                .map(|(a, b)| Vector2::new(*a, *b))
+                .collect(),
+        )),
+        (None, None) => Ok(None),
+        _ => Err(Error::input(format!(
+            "columns '{x}' and '{y}' come together (a force vector needs both)"
+        ))),
     }
 }
 

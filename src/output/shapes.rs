@@ -24,6 +24,13 @@ pub enum Shape {
         /// Outline colour.
         stroke: Rgb,
     },
+    /// An open polyline (e.g. an arrow: tail, tip, one barb, tip, the other barb).
+    Path {
+        /// Points (x, y), in order.
+        points: Vec<(f64, f64)>,
+        /// Line colour.
+        stroke: Rgb,
+    },
     /// A filled circle.
     Circle {
         /// Centre (x, y).
@@ -82,7 +89,9 @@ fn extent(shapes: &[Shape]) -> ((f64, f64), (f64, f64)) {
     };
     for s in shapes {
         match s {
-            Shape::Polygon { points, .. } => points.iter().for_each(|p| add(p.0, p.1, 0.0)),
+            Shape::Polygon { points, .. } | Shape::Path { points, .. } => {
+                points.iter().for_each(|p| add(p.0, p.1, 0.0))
+            }
             Shape::Circle { centre, radius, .. } => add(centre.0, centre.1, *radius),
         }
     }
@@ -187,6 +196,14 @@ fn draw(
                 outline.extend(points.first());
                 chart
                     .draw_series(std::iter::once(PathElement::new(outline, rgb(*stroke))))
+                    .map_err(err)?;
+            }
+            Shape::Path { points, stroke } => {
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        points.clone(),
+                        rgb(*stroke).stroke_width(2),
+                    )))
                     .map_err(err)?;
             }
             Shape::Circle {

@@ -2,8 +2,10 @@
 //!
 //! Snapshots are written through [`crate::output::particles`] (extended XYZ, LAMMPS dump,
 //! legacy VTK, Parquet with `x_m`, `y_m`, `radius_m`, `type`, `force_magnitude_N`, …; read by
-//! `magopt analyze`): discs at z = 0, type = species index + 1, extra column
-//! `force_magnitude` (N, magnitude of the non-friction force F_T on the particle).
+//! `magopt analyze`): discs at z = 0, type = species index + 1, extra columns
+//! `magnetic_force` (N, vector: the pair forces (B1) plus the wall forces (B2) on the particle,
+//! without gravity and friction, the force the source maps in its Figs. 4.20–4.24) and
+//! `force_magnitude` (N, its magnitude).
 
 use nalgebra::{Vector2, Vector3};
 use rayon::prelude::*;
@@ -130,18 +132,19 @@ pub struct Snapshot {
     pub species: Vec<usize>,
     /// Masses, kg.
     pub mass: Vec<f64>,
-    /// |F_T|, N.
-    pub force: Vec<f64>,
+    /// F_pp + F_pw (B1, B2: the magnetic force, without gravity and friction), N.
+    pub magnetic_force: Vec<Vector2<f64>>,
 }
 
 impl Snapshot {
-    /// The current configuration.
+    /// The current configuration; `gravity` (m/s²) is taken off the non-friction force F_T
+    /// to leave the magnetic force.
     pub fn take(
         label: &str,
         state: &State,
         particles: &Particles,
         field: &ForceField,
-        geometry: &Geometry,
+        (geometry, gravity): (&Geometry, f64),
     ) -> Self {
         Self {
             label: label.to_string(),
@@ -153,13 +156,24 @@ impl Snapshot {
             diameter: particles.diameter.clone(),
             species: particles.species.clone(),
             mass: particles.mass.clone(),
-            force: field.out.iter().map(|o| o.force.norm()).collect(),
+            magnetic_force: field
+                .out
+                .iter()
+                .zip(&particles.mass)
+                .map(|(o, m)| o.force + Vector2::new(0.0, m * gravity))
+                .collect(),
         }
+    }
+
+    /// |F_pp + F_pw| per particle, N.
+    pub fn force_magnitude(&self) -> Vec<f64> {
+        self.magnetic_force.iter().map(|f| f.norm()).collect()
     }
 
     /// The configuration as a particle frame: discs in the plane z = 0 (vz = 0), type =
     /// species index + 1, cell W × piston height × the largest diameter (centred on z = 0),
-    /// not periodic; extra column `force_magnitude` (|F_T|, N).
+    /// not periodic; extra columns `magnetic_force` (N, in the plane) and `force_magnitude`
+    /// (its magnitude, N).
     pub fn frame(&self) -> ParticleFrame {
         let thickness = self.diameter.iter().fold(0.0, |a: f64, d| a.max(*d));
         let lo = Vector3::new(0.0, 0.0, -thickness / 2.0);
@@ -170,7 +184,18 @@ impl Snapshot {
         frame.velocity = self.velocity.iter().map(|v| v.push(0.0)).collect();
         frame.radius = self.diameter.iter().map(|d| d / 2.0).collect();
         frame.mass = self.mass.clone();
-        frame.with(Property::scalar("force_magnitude", "N", self.force.clone()))
+        let force = &self.magnetic_force;
+        frame
+            .with(Property::vector(
+                "magnetic_force",
+                "N",
+                force.iter().map(|f| f.push(0.0)).collect(),
+            ))
+            .with(Property::scalar(
+                "force_magnitude",
+                "N",
+                self.force_magnitude(),
+            ))
     }
 
     /// Writes `<dir>/<stem>.xyz`, `.dump`, `.vtk` and `.parquet` atomically (see

@@ -268,7 +268,7 @@ impl<'a> Simulation<'a> {
             &self.state,
             &self.particles,
             &self.field,
-            &self.geometry,
+            (&self.geometry, self.params.gravity),
         )
     }
 
