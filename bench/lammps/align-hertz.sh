@@ -79,15 +79,18 @@ thermo_style custom step c_mean_contacts
 thermo $(( (steps + 49) / 50 ))
 timestep 0.1
 run $steps
+thermo_style custom step
+uncompute mean_contacts
+uncompute contacts
+run 0
 IN
   local log=$work/log.pour-$n
   lmp_best_of_two "$work/in.pour-$n" "$log"
   local cpu wall lcp lnb
   cpu=$(lmp_cpu_s "$log"); wall=$(lmp_loop_s "$log")
   # step-mean contacts per particle: the mean of the thermo samples
-  lcp=$(awk '$1 == "Step" {on = 1; next} /^Loop time/ {on = 0}
-    on && $1 ~ /^[0-9]+$/ {s += $2; k++} END {print s / k}' "$log")
-  lnb=$(awk '/^Ave neighs\/atom/ {print $NF; exit}' "$log")
+  lcp=$(lmp_thermo_mean "$log" c_mean_contacts)
+  lnb=$(lmp_half_list "$log")
   local lps lpe lpsw lpew
   lps=$(awk -v n="$n" -v s="$steps" -v t="$cpu" 'BEGIN {print n * s / t}')
   lpe=$(awk -v n="$n" -v c="$lcp" -v s="$steps" -v t="$cpu" 'BEGIN {print n * c / 2 * s / t}')

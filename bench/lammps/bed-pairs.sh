@@ -81,13 +81,17 @@ thermo_style custom step c_partners
 thermo $steps
 timestep 0.005
 run $steps
+thermo_style custom step
+uncompute partners
+uncompute coordination
+run 0
 IN
   local log=$work/log.bed-$n
   lmp_best_of_two "$work/in.bed-$n" "$log"
   local cpu wall lpp lnb lbuilds
   cpu=$(lmp_cpu_s "$log"); wall=$(lmp_loop_s "$log")
-  lpp=$(lmp_thermo_last "$log" c_partners)
-  lnb=$(awk '/^Ave neighs\/atom/ {print $NF; exit}' "$log")
+  lpp=$(lmp_thermo_mean "$log" c_partners)  # at the first and last step
+  lnb=$(lmp_half_list "$log")
   lbuilds=$(lmp_builds "$log")
   local lps lpe lpsw lpew
   lps=$(awk -v n="$n" -v s="$steps" -v t="$cpu" 'BEGIN {print n * s / t}')
@@ -100,7 +104,10 @@ IN
   printf '%6s %-7s %10s %9.2f %9.2f %7s %14s %14s %14s %14s\n' "$n" LAMMPS "$steps" "$lpp" \
     "$(awk -v h="$lnb" 'BEGIN {print 2 * h}')" "$lbuilds" "$(sci "$lps")" "$(sci "$lpe")" \
     "$(sci "$lpsw")" "$(sci "$lpew")"
-  echo "       (step-mean packing fraction $phi, cell $width × $(awk -v n="$n" -v w="$width" -v p="$phi" 'BEGIN {printf "%.1f", n * 3.14159265 / 4 / (w * p)}') D, r_c = $rc D, r_v = $rv D; LAMMPS pair time $(lmp_pair_s "$log") of $wall s, $(lmp_cpu_use "$log") CPU use)"
+  awk -v n="$n" -v w="$width" -v p="$phi" -v c="$rc" -v v="$rv" -v ps="$(lmp_pair_s "$log")" \
+    -v t="$wall" -v u="$(lmp_cpu_use "$log")" 'BEGIN {printf "       (step-mean packing \
+fraction %.4f, cell %.2f × %.2f D, r_c = %s D, r_v = %s D; LAMMPS pair time %.3g of %.3g s, \
+CPU use %.2f)\n", p, w, n * 3.14159265 / 4 / (w * p), c, v, ps, t, u}'
   summary+=("summary|bed r⁻⁴ N=$n|$(ratio "$mps" "$lps")|$(ratio "$mpe" "$lpe")")
 }
 summary=()

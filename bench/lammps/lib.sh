@@ -28,11 +28,18 @@ lmp_cpu_use() { awk '/CPU use with/ {for (i = 1; i <= NF; i++) if ($i ~ /%$/) {s
 lmp_steps() { awk '/^Loop time of/ {print $9; exit}' "$1"; }
 lmp_builds() { awk '/^Neighbor list builds/ {print $NF; exit}' "$1"; }
 lmp_pair_s() { awk '/^Pair / {print $5; exit}' "$1"; }
-# The last thermo value of column `name` (thermo_style custom ... name ...).
-lmp_thermo_last() {
-  awk -v col="$2" '$1 == "Step" {for (i = 1; i <= NF; i++) if ($i == col) c = i; on = 1; next}
-    /^Loop time/ {on = 0} on && c && $1 ~ /^[0-9]+$/ {v = $c} END {print v}' "$1"
+# The first run's thermo values of column $2 (thermo_style custom ... $2 ...): the last one,
+# and the mean of all.
+lmp_thermo_last() { lmp_thermo "$1" "$2" | tail -1; }
+lmp_thermo_mean() { lmp_thermo "$1" "$2" | awk '{s += $1; k++} END {print s / k}'; }
+lmp_thermo() {
+  awk -v col="$2" '$1 == "Step" {for (i = 1; i <= NF; i++) if ($i == col) c = i; next}
+    /^Loop time/ {exit} c && $1 ~ /^[0-9]+$/ {print $c}' "$1"
 }
+# Half-list entries per atom of the pair style's list: the decks end with a `run 0` after
+# their computes are removed, so the last count is that list's alone (a compute's occasional
+# full list would otherwise be the one counted).
+lmp_half_list() { awk '/^Ave neighs\/atom/ {v = $NF} END {print v}' "$1"; }
 
 # Runs a LAMMPS deck twice; keeps the log of the faster loop (per CPU second) as $2.
 lmp_best_of_two() {
