@@ -5,8 +5,8 @@
 # second and per wall second, and the ratios magopt / LAMMPS.
 #
 # magopt: `magopt bench bed --threads 1 --neighbors verlet`, one full cycle (relaxation,
-# compression, expansion; at N = 3680 the piston moves 10× faster, so the cycle takes about
-# as many steps as N = 368's). Its wall time holds everything a step does: pairs, walls,
+# compression, expansion; at N = 3680 the piston moves 10× faster to keep the run a few
+# minutes long). Its wall time holds everything a step does: pairs, walls,
 # gravity, the dry-friction solve, the run checks and observables. Its full lists evaluate
 # each unordered pair twice (once from each side); its "pair evaluations" count each once.
 # LAMMPS (Debian's `lammps`, `lmp`): the same N, r_c and skin r_v − r_c (from magopt's JSON),
