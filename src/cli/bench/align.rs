@@ -1,12 +1,19 @@
 //! `magopt bench align`: one full DEM run (settling, then alignment to the target) per particle
 //! count and thread count: settling time, particle-steps per second of both stages, peak memory.
+//! For the settling (packing stages 1–3, FIRE with harmonic then Hertz contacts, frictionless)
+//! each row gives `settle_contacts_per_particle`, the evaluation-mean number of touching
+//! partners per particle, `settle_list_entries_per_particle`, the partners checked (list skin
+//! included; each pair from both sides, the lists being full), and
+//! `settle_contact_evaluations_per_s`, touching pairs evaluated per second counted once each
+//! (the count LAMMPS with Newton's third law on evaluates, bench/lammps/align-hertz.sh), also
+//! per CPU second (per core on a loaded machine).
 
 use serde_json::json;
 use std::time::Instant;
 
-use super::{counts, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use super::{counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
 use crate::materials::MaterialDb;
-use crate::models::align::dem::{self, Packing};
+use crate::models::align::dem::{self, ContactWork, Packing};
 use crate::models::align::AlignParams;
 use crate::units::si_per_unit;
 use crate::{Error, Result};
@@ -23,12 +30,14 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
         args.rest
     );
     println!(
-        "{:>7} {:>3} {:>9} {:>8} {:>11} {:>6} {:>7} {:>9} {:>10} {:>8} {:>7}",
+        "{:>7} {:>3} {:>9} {:>8} {:>11} {:>9} {:>10} {:>6} {:>7} {:>9} {:>10} {:>8} {:>7}",
         "N",
         "thr",
         "settle s",
         "steps",
         "p-steps/s",
+        "contacts",
+        "contacts/s",
         "steps",
         "sweeps",
         "align s",
@@ -45,11 +54,17 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             params.particles = n;
             params.numerics.rest_measure = args.rest;
             reset_peak_rss();
-            let started = Instant::now();
-            let packing = pool
-                .install(|| Packing::generate(&params.packing(), 1))
+            let (started, cpu_start) = (Instant::now(), cpu_seconds());
+            let (packing, work) = pool
+                .install(|| Packing::generate_counted(&params.packing(), 1))
                 .map_err(Error::Output)?;
             let settle_s = started.elapsed().as_secs_f64();
+            let settle_cpu_s = cpu_seconds() - cpu_start;
+            let total = |f: fn(&ContactWork) -> u64| work.iter().map(f).sum::<u64>() as f64;
+            let per_particle = |f| total(f) / (total(|w| w.evaluations) * n as f64);
+            let contacts_per_particle = per_particle(|w| w.contacts);
+            // touching pairs, each once
+            let contact_evaluations = 0.5 * total(|w| w.contacts);
             let settle_steps: usize = packing.steps.iter().sum();
             params.max_time = (args.max_steps as f64 - 0.5) * dem::time_step_s(&params, &packing);
             let outcome = pool.install(|| dem::align(&params, &packing, None));
@@ -57,7 +72,8 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let align_rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
             let peak_mb = peak_rss_mb();
             println!(
-                "{n:>7} {t:>3} {settle_s:>9.1} {settle_steps:>8} {settle_rate:>11.3e} {:>6} {:>7} {:>9.2} {align_rate:>10.3e} {:>8.4} {peak_mb:>7.1}",
+                "{n:>7} {t:>3} {settle_s:>9.1} {settle_steps:>8} {settle_rate:>11.3e} {contacts_per_particle:>9.2} {:>10.3e} {:>6} {:>7} {:>9.2} {align_rate:>10.3e} {:>8.4} {peak_mb:>7.1}",
+                contact_evaluations / settle_s,
                 outcome.steps,
                 outcome.solver_sweeps,
                 outcome.wall_time_s,
@@ -70,6 +86,12 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
                 "settle_s": settle_s,
                 "settle_steps": packing.steps,
                 "settle_particle_steps_per_s": settle_rate,
+                "settle_cpu_s": settle_cpu_s,
+                "settle_particle_steps_per_cpu_s": (settle_steps * n) as f64 / settle_cpu_s,
+                "settle_contacts_per_particle": contacts_per_particle,
+                "settle_list_entries_per_particle": per_particle(|w| w.list_entries),
+                "settle_contact_evaluations_per_s": contact_evaluations / settle_s,
+                "settle_contact_evaluations_per_cpu_s": contact_evaluations / settle_cpu_s,
                 "align_steps": outcome.steps,
                 "align_solver_sweeps": outcome.solver_sweeps,
                 "align_s": outcome.wall_time_s,

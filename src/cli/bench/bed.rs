@@ -1,10 +1,17 @@
 //! `magopt bench bed`: one full compression cycle per (N, neighbour method, far-field interval,
-//! threads).
+//! threads). Besides particle-steps per second each row gives what the pair sums cost:
+//! `pairs_per_particle`, the step-mean number of partners closer than the cut-off r_c (N − 1
+//! for exact sums); `list_entries_per_particle`, the partners the kernel loops over (list
+//! skin included; each unordered pair is evaluated from both sides, the lists being full);
+//! `pair_evaluations_per_s`, unordered pairs inside r_c summed per second, each counted once
+//! (N × pairs_per_particle / 2 per step: the count LAMMPS with Newton's third law on
+//! evaluates, bench/lammps/bed-pairs.sh); `kernel_pair_terms_per_s`, the ordered list entries
+//! the kernel evaluated per second; and per-CPU-second rates (per core on a loaded machine).
 
 use serde_json::json;
 
 use super::super::params::Given;
-use super::{count, counts, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
 use crate::models::bed::study::BedModel;
 use crate::Result;
 
@@ -16,7 +23,7 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
         args.velocity
     );
     println!(
-        "{:>7} {:>9} {:>3} {:>7} {:>9} {:>10} {:>10} {:>16} {:>11} {:>13}",
+        "{:>7} {:>9} {:>3} {:>7} {:>9} {:>10} {:>10} {:>16} {:>8} {:>10} {:>11} {:>13}",
         "N",
         "neighbors",
         "K",
@@ -25,6 +32,8 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
         "wall (s)",
         "μs/step",
         "particle-steps/s",
+        "pairs/p",
+        "pairs/s",
         "F_max (N)",
         "peak RSS (MB)"
     );
@@ -68,19 +77,27 @@ fn row(
     let (mut params, _) = super::super::params::setup(model, &given)?;
     params.snapshots = false;
     reset_peak_rss();
+    let cpu_start = cpu_seconds();
     let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
+    let cpu_s = cpu_seconds() - cpu_start;
     let n = params.particle_count();
     let (method, k) = (
         format!("{:?}", params.neighbors).to_lowercase(),
         params.far_field_interval,
     );
+    let work = &o.pair_work;
+    let per_particle = |sum: u64| sum as f64 / (work.steps as f64 * n as f64);
+    // unordered pairs inside r_c, each once
+    let pair_evaluations = 0.5 * work.pairs_within_cutoff as f64;
     println!(
-        "{n:>7} {:>9} {k:>3} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>11.3} {:>13.1}{}",
+        "{n:>7} {:>9} {k:>3} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>8.2} {:>10.3e} {:>11.3} {:>13.1}{}",
         method,
         o.steps,
         o.wall_time_s,
         1e6 * o.wall_time_s / o.steps as f64,
         (o.steps * n) as f64 / o.wall_time_s,
+        per_particle(work.pairs_within_cutoff),
+        pair_evaluations / o.wall_time_s,
         o.max_force.unwrap_or(f64::NAN),
         peak_rss_mb(),
         o.failure
@@ -92,12 +109,23 @@ fn row(
         "particles": n,
         "neighbors": method,
         "far_field_interval": k,
+        "cutoff_D": params.cutoff.diameters(params.reference_diameter()),
         "list_radius_D": params.list_radius.diameters(params.reference_diameter()),
+        "cell_width_D": params.cell().0 / params.reference_diameter(),
         "time_step_factor": params.time_step_factor,
         "threads": threads,
         "steps": o.steps,
         "wall_s": o.wall_time_s,
         "particle_steps_per_s": (o.steps * n) as f64 / o.wall_time_s,
+        "cpu_s": cpu_s,
+        "particle_steps_per_cpu_s": (o.steps * n) as f64 / cpu_s,
+        "list_builds": o.list_builds,
+        "mean_packing_fraction": work.mean_packing_fraction(),
+        "pairs_per_particle": per_particle(work.pairs_within_cutoff),
+        "list_entries_per_particle": per_particle(work.pair_terms),
+        "pair_evaluations_per_s": pair_evaluations / o.wall_time_s,
+        "pair_evaluations_per_cpu_s": pair_evaluations / cpu_s,
+        "kernel_pair_terms_per_s": work.pair_terms as f64 / o.wall_time_s,
         "max_piston_force_N": o.max_force,
         "cycle_work_J": o.cycle_work,
         "failure": o.failure,

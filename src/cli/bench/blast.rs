@@ -1,11 +1,12 @@
 //! `magopt bench blast`: the source's non-interacting example (Boris–Strang, 10⁴ steps) and
 //! the interacting example (adaptive trapezoidal rule; near field exact or Barnes–Hut) per
 //! particle count and thread count: wall time, steps and particle-steps per second, and for
-//! the exact near field the pairs summed per second (N(N − 1)/2 per force evaluation).
+//! the exact near field the pairs summed per second (N(N − 1)/2 per force evaluation), also
+//! per CPU second (per core on a loaded machine).
 
 use serde_json::json;
 
-use super::{count, counts, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
 use crate::models::blast::{run as run_blast, BlastParams, Interactions};
 use crate::units::{parse_quantity, Dimension};
 use crate::{Error, Result};
@@ -47,12 +48,14 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                 }
                 p.validate()?;
                 reset_peak_rss();
+                let cpu_start = cpu_seconds();
                 let o = pool.install(|| run_blast(&p, 1, &|_| {}, None))?;
+                let cpu_s = cpu_seconds() - cpu_start;
                 let label = if interacting { "interacting" } else { "free" };
                 let rate = (o.stats.steps * n) as f64 / o.wall_time_s;
                 let exact = interacting && p.near_field.theta == 0.0;
-                let pairs = (o.stats.evaluations * n * (n - 1) / 2) as f64 / o.wall_time_s;
-                let pairs = exact.then_some(pairs);
+                let pair_count = (o.stats.evaluations * n * (n - 1) / 2) as f64;
+                let pairs = exact.then_some(pair_count / o.wall_time_s);
                 println!(
                     "{n:>6} {threads:>7} {label:>12} {:>9} {:>8} {:>9} {:>8} {:>10.3} {rate:>16.3e} {:>12} {:>13.1}{}",
                     p.duration,
@@ -77,6 +80,8 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                     "particle_steps_per_s": rate,
                     "force_evaluations": o.stats.evaluations,
                     "near_field_pairs_per_s": pairs,
+                    "cpu_s": cpu_s,
+                    "near_field_pairs_per_cpu_s": exact.then_some(pair_count / cpu_s),
                     "failure": o.failure,
                     "peak_rss_mb": peak_rss_mb(),
                 }));

@@ -145,6 +145,24 @@ fn peak_rss_mb() -> f64 {
     status_field("/proc/self/status", "VmHWM:").map_or(f64::NAN, |kb| kb / 1024.0)
 }
 
+/// CPU time this process has used so far (user + system, all threads), s; NaN where /proc
+/// is unavailable. Rates per CPU second are per-core rates even on a loaded machine, where
+/// wall-clock rates fall with the share of the cores the run gets.
+fn cpu_seconds() -> f64 {
+    // /proc/self/stat: fields 14 and 15 (utime, stime) in clock ticks of 1/100 s (USER_HZ on
+    // Linux); the fields are counted after the parenthesized command name.
+    let ticks = std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|t| {
+            let rest = &t[t.rfind(')')? + 1..];
+            let mut fields = rest.split_whitespace().skip(11);
+            let user: f64 = fields.next()?.parse().ok()?;
+            let system: f64 = fields.next()?.parse().ok()?;
+            Some(user + system)
+        });
+    ticks.map_or(f64::NAN, |t| t / 100.0)
+}
+
 /// A "key: number ..." line of a /proc file.
 fn status_field(path: &str, key: &str) -> Option<f64> {
     let text = std::fs::read_to_string(path).ok()?;

@@ -368,6 +368,47 @@ impl ForceField {
             }
         }
     }
+
+    /// Ordered pair terms (i, j) the last evaluation's loops ran over, masked ones included
+    /// (a benchmark count): every listed partner of every particle, so each unordered pair
+    /// twice (the lists are full); N(N − 1) for exact sums; with multiple time stepping the
+    /// near list, plus the far list on the steps its sums were due.
+    pub fn pair_terms(&self) -> usize {
+        let n = self.out.len();
+        match &self.pairs {
+            Pairs::All => n * n.saturating_sub(1),
+            Pairs::Cut {
+                list, split: None, ..
+            } => list.len(),
+            Pairs::Cut {
+                list,
+                split: Some(split),
+                ..
+            } => split.near.len() + usize::from(split.due + 1 == split.interval) * list.len(),
+        }
+    }
+
+    /// Ordered pairs (i, j) closer than the cut-off at these positions (a benchmark count):
+    /// N(N − 1) for exact sums, every entry of a list rebuilt each step without skin, else one
+    /// pass over the list (sample it at list builds, not every step).
+    pub fn pairs_within_cutoff(&self, position: &[Vector2<f64>]) -> usize {
+        let n = position.len();
+        match &self.pairs {
+            Pairs::All => n * n.saturating_sub(1),
+            Pairs::Cut {
+                list,
+                every_step: true,
+                ..
+            } => list.len(),
+            Pairs::Cut { list, cutoff2, .. } => (0..n)
+                .map(|i| {
+                    partners(list, i)
+                        .filter(|&j| (position[i] - position[j]).norm_squared() < *cutoff2)
+                        .count()
+                })
+                .sum(),
+        }
+    }
 }
 
 /// max(a, b) for a running maximum a that is never NaN: one compare-and-select, where

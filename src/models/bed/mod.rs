@@ -16,6 +16,7 @@ pub mod damper_fit;
 pub mod forces;
 pub mod integrator;
 pub mod observables;
+pub mod pair_work;
 pub mod params;
 pub mod protocol;
 pub mod report;
@@ -88,6 +89,8 @@ pub struct BedOutcome {
     pub steps: usize,
     /// Neighbour-list builds.
     pub list_builds: usize,
+    /// Pair terms and pairs inside the cut-off over the run's steps (benchmarks).
+    pub pair_work: pair_work::PairWork,
     /// Mean Δt, s.
     pub mean_time_step: f64,
     /// Damper: rest height of the loaded piston before the nudge, m.
@@ -133,6 +136,7 @@ impl BedOutcome {
         self.closest_piston = sim.closest_piston;
         self.steps = sim.steps;
         self.list_builds = sim.field.list_builds();
+        self.pair_work = sim.pair_work;
         self.mean_time_step = sim.state.time / sim.steps.max(1) as f64;
         self.series = sim.series.clone();
         self.wall_time_s = wall_time_s;

@@ -11,6 +11,7 @@ use super::observables::{
     area_fraction_profile, mean_distance, min_piston_distance, min_wall_distance, Snapshot,
     AREA_FRACTION_SERIES,
 };
+use super::pair_work::PairWork;
 use super::params::BedParams;
 use super::state::{species_of, Geometry, Particles, State};
 use super::{BedOutcome, Series};
@@ -30,6 +31,8 @@ pub struct Simulation<'a> {
     pub field: ForceField,
     /// Steps taken.
     pub steps: usize,
+    /// What the steps' pair sums cost (benchmarks).
+    pub pair_work: PairWork,
     /// Recorded time series.
     pub series: Series,
     /// Smallest pair distance over the run, in units of the pair's mean diameter.
@@ -55,6 +58,7 @@ impl<'a> Simulation<'a> {
         let mut field = ForceField::new(params, &particles, geometry);
         field.evaluate(&particles, &state);
         let mean_diameter = particles.diameter.iter().sum::<f64>() / particles.len() as f64;
+        let pair_work = PairWork::new(particles.disc_area(), geometry.width);
         Self {
             params,
             particles,
@@ -62,6 +66,7 @@ impl<'a> Simulation<'a> {
             state,
             field,
             steps: 0,
+            pair_work,
             series: Series::default(),
             closest_pair: f64::INFINITY,
             closest_wall: f64::INFINITY,
@@ -152,6 +157,8 @@ impl<'a> Simulation<'a> {
     /// Counters, extremes, checks, recording and particle frames after a step.
     pub fn after_step(&mut self) -> Result<(), String> {
         self.steps += 1;
+        self.pair_work
+            .record(&self.field, &self.state.position, self.state.piston);
         if self.steps > self.params.max_steps {
             return Err(format!(
                 "step budget of {} steps spent at t = {:.4e} s: raise max_steps, or check the \

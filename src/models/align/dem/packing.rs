@@ -49,6 +49,14 @@ impl Packing {
     /// Runs stages 1–3 for one seed. Errors (a stage that does not finish) are returned as a
     /// reason string: the caller records a failed run.
     pub fn generate(params: &PackingParams, seed: u64) -> Result<Self, String> {
+        Self::generate_counted(params, seed).map(|(packing, _)| packing)
+    }
+
+    /// [`Self::generate`] with what each stage's contact sums cost (benchmarks).
+    pub fn generate_counted(
+        params: &PackingParams,
+        seed: u64,
+    ) -> Result<(Self, [ContactWork; 3]), String> {
         let radius = sample_radii(params, seed);
         let solid: f64 = radius
             .iter()
@@ -76,11 +84,12 @@ impl Packing {
             skin: 0.0,
         };
         let n = &params.numerics;
-        packing.steps[0] = packing.flow(&law, Repulsion::Harmonic, 0.0, |s| {
+        let mut work = [ContactWork::default(); 3];
+        (packing.steps[0], work[0]) = packing.flow(&law, Repulsion::Harmonic, 0.0, |s| {
             s.max_overlap < n.overlap_tolerance
         })?;
         let f = n.settling_force;
-        packing.steps[1] = packing.flow(&law, Repulsion::Hertz, f, |s| {
+        (packing.steps[1], work[1]) = packing.flow(&law, Repulsion::Hertz, f, |s| {
             let speed = match n.rest_measure {
                 RestMeasure::Max => s.max_force,
                 RestMeasure::Rms => s.rms_force,
@@ -88,10 +97,10 @@ impl Packing {
             s.steps > 10 && speed < n.rest_speed * f
         })?;
         packing.container.top = None;
-        packing.steps[2] = packing.flow(&law, Repulsion::Hertz, 0.0, |s| {
+        (packing.steps[2], work[2]) = packing.flow(&law, Repulsion::Hertz, 0.0, |s| {
             s.max_overlap < n.overlap_tolerance
         })?;
-        Ok(packing)
+        Ok((packing, work))
     }
 
     /// Solid volume over the volume of the die up to the highest sphere top.
@@ -99,31 +108,35 @@ impl Packing {
         packing_fraction(&self.radius, &self.position, &self.container)
     }
 
-    /// Minimizes the stage's potential energy with FIRE until `done`; returns the step count.
+    /// Minimizes the stage's potential energy with FIRE until `done`; returns the step count
+    /// and what the contact sums cost.
     fn flow(
         &mut self,
         law: &ContactLaw,
         repulsion: Repulsion,
         down_force: f64,
         done: impl Fn(&FlowStatus) -> bool,
-    ) -> Result<usize, String> {
+    ) -> Result<(usize, ContactWork), String> {
         let n = self.radius.len();
         let mut list = NeighborList::new(SKIN);
-        let mut force = vec![(Vector3::zeros(), 0.0, 0.0); n];
+        let mut force = vec![(Vector3::zeros(), 0.0, 0.0, 0); n];
         let mut fire = Fire::new(n);
+        let mut work = ContactWork::default();
         for step in 0..MAX_STEPS {
             list.update(&self.position, &self.radius);
             // one parallel gather per step; no contact list is stored
             let (position, radius, container) = (&self.position, &self.radius, &self.container);
             force.par_iter_mut().enumerate().for_each(|(i, slot)| {
-                *slot = (Vector3::new(0.0, 0.0, -down_force), 0.0, 0.0);
+                *slot = (Vector3::new(0.0, 0.0, -down_force), 0.0, 0.0, 0);
                 law.contacts_of(i, position, radius, &list, container, |c| {
                     let (f, k) = repulsion.force_and_stiffness(&c);
                     slot.0 -= f * c.normal;
                     slot.1 += k;
                     slot.2 = f64::max(slot.2, c.overlap);
+                    slot.3 += u32::from(c.particle().is_some());
                 });
             });
+            work.add(list.len(), force.par_iter().map(|f| f.3 as usize).sum());
             let max_force = force
                 .par_iter()
                 .map(|f| f.0.norm())
@@ -141,7 +154,7 @@ impl Packing {
                     .sqrt(),
             };
             if done(&status) {
-                return Ok(step);
+                return Ok((step, work));
             }
             fire.step(&mut self.position, &force, max_stiffness, max_force);
         }
@@ -171,8 +184,30 @@ pub fn bed_top(position: &[Vector3<f64>], radius: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Net force on a particle, its summed contact stiffness and its largest overlap.
-type Load = (Vector3<f64>, f64, f64);
+/// Net force on a particle, its summed contact stiffness, its largest overlap and its number
+/// of particle contacts.
+type Load = (Vector3<f64>, f64, f64, u32);
+
+/// What a packing stage's contact sums cost, summed over its force evaluations (benchmarks).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ContactWork {
+    /// Force evaluations.
+    pub evaluations: u64,
+    /// Ordered neighbour-list entries (i, j) checked for contact: each unordered pair twice,
+    /// the lists being full.
+    pub list_entries: u64,
+    /// Ordered touching particle pairs (i, j) whose contact force was evaluated: each contact
+    /// twice, once from either side.
+    pub contacts: u64,
+}
+
+impl ContactWork {
+    fn add(&mut self, list_entries: usize, contacts: usize) {
+        self.evaluations += 1;
+        self.list_entries += list_entries as u64;
+        self.contacts += contacts as u64;
+    }
+}
 
 /// FIRE, the fast inertial relaxation engine (Bitzek et al., PRL 97, 170201, 2006), with unit
 /// masses and its standard constants. The step is capped by the stiffest particle
