@@ -1,12 +1,14 @@
 //! The non-friction force F_T on every particle (B1 pairs, B2 walls, gravity), the plate normal
 //! force N_i of the dry friction (B4), the force on the piston, and the closest-approach data
 //! the time step and the run checks need. Every particle's sums are gathered over its own
-//! neighbours in a fixed order, so results are bit-identical whatever the thread count.
+//! neighbours in a fixed order (exact sums: over its tiles in tile order, [`ExactSums`]), so
+//! results are bit-identical whatever the thread count.
 
 use nalgebra::Vector2;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
+use super::exact::ExactSums;
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
 use crate::neighbor::NeighborList;
@@ -38,7 +40,7 @@ pub struct ParticleForce {
 /// Which pairs enter the sums.
 #[derive(Debug, Clone)]
 enum Pairs {
-    All,
+    All(ExactSums),
     Cut {
         list: NeighborList<2>,
         radii: Vec<f64>,
@@ -94,7 +96,7 @@ impl ForceField {
             .collect();
         let n = particles.len();
         let pairs = match params.neighbors {
-            Neighbors::Exact => Pairs::All,
+            Neighbors::Exact => Pairs::All(ExactSums::new(particles)),
             Neighbors::SourceVerlet => {
                 let rv = params.list_radius.diameters(d1) * d1;
                 Pairs::Cut {
@@ -155,7 +157,7 @@ impl ForceField {
     /// Number of neighbour-list builds so far (0 for exact sums).
     pub fn list_builds(&self) -> usize {
         match &self.pairs {
-            Pairs::All => 0,
+            Pairs::All(_) => 0,
             Pairs::Cut { list, .. } => list.builds(),
         }
     }
@@ -163,6 +165,9 @@ impl ForceField {
     /// Evaluates every particle's forces at the state into `self.out`.
     pub fn evaluate(&mut self, particles: &Particles, state: &State) {
         let (position, n) = (&state.position, state.position.len());
+        if let Pairs::All(exact) = &mut self.pairs {
+            exact.evaluate(position);
+        }
         if self.update_lists(position) {
             // the held far sums are refilled in place (no allocation after the first)
             let mut far = self
@@ -226,12 +231,7 @@ impl ForceField {
     fn particle(&self, i: usize, particles: &Particles, state: &State) -> ParticleForce {
         let position = &state.position;
         let acc = match &self.pairs {
-            Pairs::All => self.pair_sums(
-                i,
-                (0..i).chain(i + 1..position.len()),
-                position,
-                (0.0, f64::INFINITY),
-            ),
+            Pairs::All(exact) => exact.of(i),
             Pairs::Cut {
                 list,
                 cutoff2,
@@ -395,11 +395,15 @@ struct Partner {
 
 /// Running sums of one particle's pair loop (without the μ_i and 3μ0/4π factors).
 #[derive(Debug, Clone, Copy, Default)]
-struct PairSums {
-    force: Vector2<f64>,
-    normal: f64,
-    stiffest: f64,
-    closeness: f64,
+pub(super) struct PairSums {
+    /// Σ_j μ_j d/r⁵ with d = r_i − r_j, A·m²/m⁴.
+    pub(super) force: Vector2<f64>,
+    /// Σ_j μ_j sin θ_j/r³ (B4), A·m²/m³.
+    pub(super) normal: f64,
+    /// max_j μ_j/r⁵, A·m²/m⁵.
+    pub(super) stiffest: f64,
+    /// max_j ((D_i + D_j)/2)²/r².
+    pub(super) closeness: f64,
 }
 
 impl PairSums {

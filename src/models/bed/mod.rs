@@ -13,6 +13,7 @@
 pub mod damper;
 pub mod damper_fall_fit;
 pub mod damper_fit;
+mod exact;
 pub mod forces;
 pub mod integrator;
 pub mod observables;
