@@ -145,18 +145,18 @@ fn tile_pair<K: PairTerm<C>, const C: usize>(kernel: &K, pair: &mut TilePair<C>,
     pair.on_second = [[0.0; TILE]; C];
     let body = second.len() - second.len() % LANES;
     for (a, i) in first.enumerate() {
-        let mut acc = [[0.0; LANES]; C];
+        let mut acc = [[0.0; C]; LANES];
         for group in (0..body).step_by(LANES) {
-            for l in 0..LANES {
+            for (l, lane) in acc.iter_mut().enumerate() {
                 let b = group + l;
                 let (on_i, on_j) = kernel.term(i, second.start + b);
                 for c in 0..C {
-                    acc[c][l] = combine::<K, C>(c, acc[c][l], on_i[c]);
+                    lane[c] = combine::<K, C>(c, lane[c], on_i[c]);
                     pair.on_second[c][b] = combine::<K, C>(c, pair.on_second[c][b], on_j[c]);
                 }
             }
         }
-        let lanes = std::array::from_fn(|c| reduce_lanes::<K, C>(c, acc[c]));
+        let lanes = std::array::from_fn(|c| reduce_lanes::<K, C>(c, acc.map(|lane| lane[c])));
         finish(kernel, pair, (a, i), second.clone(), body, lanes);
     }
 }
@@ -246,6 +246,9 @@ fn combine_avx<K: PairTerm<C>, const C: usize>(
 }
 
 /// −v exactly on four lanes (the sign bit flipped, as the scalar negation does).
+///
+/// # Safety
+/// Only where the processor has AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 #[inline]

@@ -81,7 +81,10 @@ impl ExactSums {
 
 /// Components (summed) d μ_j/r⁵ (x, y) and μ_j sin θ_j/r³, then (maxima) μ_j/r⁵ and
 /// ((D_i + D_j)/2)²/r², with d = r_i − r_j; j's side has −d and μ_i. The 1/r² is computed
-/// unconditionally and then selected, so the loop has no branch (zero at r = 0, i = j).
+/// unconditionally and then selected, so the loop has no branch (zero at r = 0, i = j). The
+/// arithmetic is the lists' (`list_pairs::separations`, then `ForceField::pair_sums`), so
+/// below one group of lanes (N < 8: every partner in the scalar tail, in index order) both
+/// give the same bits.
 impl PairTerm<5> for Disks {
     const SUMS: usize = 3;
 
@@ -96,8 +99,8 @@ impl PairTerm<5> for Disks {
         let reciprocal = 1.0 / r2;
         let inv_r2 = if r2 > 0.0 { reciprocal } else { 0.0 };
         let inv_r3 = inv_r2 * inv_r2.sqrt();
-        let inv_r5 = inv_r3 * inv_r2;
-        let (on_i, on_j) = (self.moment[j] * inv_r5, self.moment[i] * inv_r5);
+        let on_i = self.moment[j] * inv_r3 * inv_r2;
+        let on_j = self.moment[i] * inv_r3 * inv_r2;
         let mean = 0.5 * (self.diameter[i] + self.diameter[j]);
         let closeness = mean * mean * inv_r2;
         (
@@ -132,9 +135,8 @@ impl PairTerm<5> for Disks {
         let positive = _mm256_cmp_pd::<_CMP_GT_OQ>(r2, _mm256_setzero_pd());
         let inv_r2 = _mm256_and_pd(reciprocal, positive);
         let inv_r3 = _mm256_mul_pd(inv_r2, _mm256_sqrt_pd(inv_r2));
-        let inv_r5 = _mm256_mul_pd(inv_r3, inv_r2);
-        let on_i = _mm256_mul_pd(at(&self.moment), inv_r5);
-        let on_j = _mm256_mul_pd(own(&self.moment), inv_r5);
+        let on_i = _mm256_mul_pd(_mm256_mul_pd(at(&self.moment), inv_r3), inv_r2);
+        let on_j = _mm256_mul_pd(_mm256_mul_pd(own(&self.moment), inv_r3), inv_r2);
         let sum_d = _mm256_add_pd(own(&self.diameter), at(&self.diameter));
         let mean = _mm256_mul_pd(_mm256_set1_pd(0.5), sum_d);
         let closeness = _mm256_mul_pd(_mm256_mul_pd(mean, mean), inv_r2);

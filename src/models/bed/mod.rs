@@ -16,6 +16,7 @@ pub mod damper_fit;
 mod exact;
 pub mod forces;
 pub mod integrator;
+mod list_pairs;
 pub mod observables;
 pub mod params;
 pub mod protocol;
