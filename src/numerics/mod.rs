@@ -4,3 +4,4 @@ pub mod quadrature;
 pub mod roots;
 pub mod special;
 pub mod stats;
+pub mod tiled_pairs;

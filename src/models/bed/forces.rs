@@ -1,12 +1,15 @@
 //! The non-friction force F_T on every particle (B1 pairs, B2 walls, gravity), the plate normal
 //! force N_i of the dry friction (B4), the force on the piston, and the closest-approach data
 //! the time step and the run checks need. Every particle's sums are gathered over its own
-//! neighbours in a fixed order, so results are bit-identical whatever the thread count.
+//! neighbours in a fixed order (exact sums: over its tiles in tile order, [`ExactSums`]), so
+//! results are bit-identical whatever the thread count.
 
 use nalgebra::Vector2;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
+use super::exact::ExactSums;
+use super::list_pairs::{HalfList, Separation};
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
 use crate::neighbor::NeighborList;
@@ -14,9 +17,6 @@ use crate::units::MU0;
 
 /// From this many particles on, the per-particle gather runs on the rayon pool.
 const PARALLEL_FROM: usize = 256;
-
-/// Pairs per batch of the pair loop.
-const LANES: usize = 4;
 
 /// What the force evaluation gives for one particle, SI.
 #[derive(Debug, Clone, Copy, Default)]
@@ -38,13 +38,15 @@ pub struct ParticleForce {
 /// Which pairs enter the sums.
 #[derive(Debug, Clone)]
 enum Pairs {
-    All,
+    All(ExactSums),
     Cut {
         list: NeighborList<2>,
         radii: Vec<f64>,
         cutoff2: f64,
         every_step: bool,
         split: Option<Box<Split>>,
+        /// The pair terms of `list` (of its far pairs in a split evaluation).
+        half: HalfList,
     },
 }
 
@@ -59,6 +61,7 @@ struct Split {
     near: NeighborList<2>,
     near_radii: Vec<f64>,
     near2: f64,
+    near_half: HalfList,
     far: Vec<PairSums>,
     due: usize,
 }
@@ -94,7 +97,7 @@ impl ForceField {
             .collect();
         let n = particles.len();
         let pairs = match params.neighbors {
-            Neighbors::Exact => Pairs::All,
+            Neighbors::Exact => Pairs::All(ExactSums::new(particles)),
             Neighbors::SourceVerlet => {
                 let rv = params.list_radius.diameters(d1) * d1;
                 Pairs::Cut {
@@ -106,6 +109,7 @@ impl ForceField {
                     cutoff2: f64::INFINITY,
                     every_step: false,
                     split: None,
+                    half: HalfList::default(),
                 }
             }
             kind => {
@@ -126,10 +130,12 @@ impl ForceField {
                             near: NeighborList::new(rv - rc),
                             near_radii: vec![0.5 * rs; n],
                             near2: rs * rs,
+                            near_half: HalfList::default(),
                             far: Vec::new(),
                             due: 0,
                         })
                     }),
+                    half: HalfList::default(),
                 }
             }
         };
@@ -155,7 +161,7 @@ impl ForceField {
     /// Number of neighbour-list builds so far (0 for exact sums).
     pub fn list_builds(&self) -> usize {
         match &self.pairs {
-            Pairs::All => 0,
+            Pairs::All(_) => 0,
             Pairs::Cut { list, .. } => list.builds(),
         }
     }
@@ -163,13 +169,16 @@ impl ForceField {
     /// Evaluates every particle's forces at the state into `self.out`.
     pub fn evaluate(&mut self, particles: &Particles, state: &State) {
         let (position, n) = (&state.position, state.position.len());
+        if let Pairs::All(exact) = &mut self.pairs {
+            exact.evaluate(position);
+        }
         if self.update_lists(position) {
             // the held far sums are refilled in place (no allocation after the first)
             let mut far = self
                 .split_mut()
                 .map(|s| std::mem::take(&mut s.far))
                 .unwrap_or_default();
-            per_particle(&mut far, n, |i| self.far_sums(i, position));
+            per_particle(&mut far, n, |i| self.far_sums(i));
             if let Some(split) = self.split_mut() {
                 split.far = far;
             }
@@ -188,15 +197,16 @@ impl ForceField {
         }
     }
 
-    /// Brings the neighbour lists up to date for this step; returns whether the far part of a
-    /// split evaluation is due (its list is then updated too).
+    /// Brings the neighbour lists and their pair terms up to date for this step; returns
+    /// whether the far part of a split evaluation is due (its list is then updated too).
     fn update_lists(&mut self, position: &[Vector2<f64>]) -> bool {
         let Pairs::Cut {
             list,
             radii,
+            cutoff2,
             every_step,
             split,
-            ..
+            half,
         } = &mut self.pairs
         else {
             return false;
@@ -207,13 +217,17 @@ impl ForceField {
             } else {
                 list.update(position, radii);
             }
+            half.evaluate(list, position, (0.0, *cutoff2));
             return false;
         };
         let due = split.due == 0;
         split.due = if due { split.interval } else { split.due } - 1;
         split.near.update(position, &split.near_radii);
+        let near = &mut split.near_half;
+        near.evaluate(&split.near, position, (0.0, split.near2));
         if due {
             list.update(position, radii);
+            half.evaluate(list, position, (split.near2, *cutoff2));
         }
         due
     }
@@ -224,24 +238,18 @@ impl ForceField {
     }
 
     fn particle(&self, i: usize, particles: &Particles, state: &State) -> ParticleForce {
-        let position = &state.position;
         let acc = match &self.pairs {
-            Pairs::All => self.pair_sums(
-                i,
-                (0..i).chain(i + 1..position.len()),
-                position,
-                (0.0, f64::INFINITY),
-            ),
+            Pairs::All(exact) => exact.of(i),
             Pairs::Cut {
                 list,
-                cutoff2,
+                half,
                 split: None,
                 ..
-            } => self.pair_sums(i, partners(list, i), position, (0.0, *cutoff2)),
+            } => self.pair_sums(i, half.of(list, i)),
             Pairs::Cut {
                 split: Some(split), ..
             } => self
-                .pair_sums(i, partners(&split.near, i), position, (0.0, split.near2))
+                .pair_sums(i, split.near_half.of(&split.near, i))
                 .plus(&split.far[i]),
         };
         let (mu, m) = (particles.moment[i], particles.mass[i]);
@@ -262,71 +270,35 @@ impl ForceField {
     }
 
     /// The far part of i's pair sums (pairs in r_s ≤ r < r_c) of a split evaluation.
-    fn far_sums(&self, i: usize, position: &[Vector2<f64>]) -> PairSums {
+    fn far_sums(&self, i: usize) -> PairSums {
         match &self.pairs {
             Pairs::Cut {
                 list,
-                cutoff2,
-                split: Some(split),
+                half,
+                split: Some(_),
                 ..
-            } => self.pair_sums(i, partners(list, i), position, (split.near2, *cutoff2)),
+            } => self.pair_sums(i, half.of(list, i)),
             _ => PairSums::default(),
         }
     }
 
-    /// The pair sums of i over the partners `others` (never i itself) at squared distances in
-    /// [inner2, cutoff2).
-    /// Partners go in batches of `LANES`: the divisions and square roots of a batch are
-    /// independent and vectorize, while the sums still add the pairs one by one in the given
-    /// order (results do not depend on the batching). The cut-off is a 0/1 weight, not a
-    /// branch: a list holds many pairs beyond r_c in no predictable order, and a mispredicted
-    /// branch costs more than the arithmetic it skips. A weight of 0 adds exact zeros, so the
-    /// sums equal those over the pairs inside alone.
+    /// The pair sums of i over its partners j and their separations (never i itself), added
+    /// one by one in the given order. Pairs outside the distance range have zero inverse
+    /// powers and add exact zeros, so the sums equal those over the pairs inside alone.
     #[inline(always)]
-    fn pair_sums(
-        &self,
-        i: usize,
-        mut others: impl Iterator<Item = usize>,
-        position: &[Vector2<f64>],
-        (inner2, cutoff2): (f64, f64),
-    ) -> PairSums {
-        let (p, own_diameter) = (position[i], self.partner[i].diameter);
+    fn pair_sums(&self, i: usize, partners: impl Iterator<Item = (usize, Separation)>) -> PairSums {
+        let own_diameter = self.partner[i].diameter;
         let mut acc = PairSums::default();
-        loop {
-            let mut batch = [i; LANES];
-            let len = batch
-                .iter_mut()
-                .map_while(|j| others.next().map(|k| *j = k))
-                .count();
-            let (mut d, mut r2, mut weight) =
-                ([Vector2::zeros(); LANES], [1.0; LANES], [0.0; LANES]);
-            for k in 0..len {
-                d[k] = p - position[batch[k]];
-                r2[k] = d[k].x * d[k].x + d[k].y * d[k].y;
-                weight[k] = if r2[k] >= inner2 && r2[k] < cutoff2 {
-                    1.0
-                } else {
-                    0.0
-                };
-            }
-            let (mut inv_r2, mut inv_r3) = ([0.0; LANES], [0.0; LANES]);
-            for k in 0..LANES {
-                inv_r2[k] = weight[k] / r2[k];
-                inv_r3[k] = inv_r2[k] * inv_r2[k].sqrt();
-            }
-            for k in 0..len {
-                let partner = &self.partner[batch[k]];
-                let mu_r5 = partner.moment * inv_r3[k] * inv_r2[k];
-                acc.force += d[k] * mu_r5;
-                acc.normal += partner.moment_sin * inv_r3[k];
-                let mean_d = 0.5 * (own_diameter + partner.diameter);
-                acc.stiffest = larger(acc.stiffest, mu_r5);
-                acc.closeness = larger(acc.closeness, mean_d * mean_d * inv_r2[k]);
-            }
-            if len < LANES {
-                return acc;
-            }
+        for (j, s) in partners {
+            let partner = &self.partner[j];
+            let mu_r5 = partner.moment * s.inv_r3 * s.inv_r2;
+            acc.force += s.d * mu_r5;
+            acc.normal += partner.moment_sin * s.inv_r3;
+            let mean_d = 0.5 * (own_diameter + partner.diameter);
+            acc.stiffest = larger(acc.stiffest, mu_r5);
+            acc.closeness = larger(acc.closeness, mean_d * mean_d * s.inv_r2);
         }
+        acc
     }
 
     /// Wall forces (B2 or its alternatives) of the bottom, the two sides and the piston.
@@ -436,11 +408,15 @@ struct Partner {
 
 /// Running sums of one particle's pair loop (without the μ_i and 3μ0/4π factors).
 #[derive(Debug, Clone, Copy, Default)]
-struct PairSums {
-    force: Vector2<f64>,
-    normal: f64,
-    stiffest: f64,
-    closeness: f64,
+pub(super) struct PairSums {
+    /// Σ_j μ_j d/r⁵ with d = r_i − r_j, A·m²/m⁴.
+    pub(super) force: Vector2<f64>,
+    /// Σ_j μ_j sin θ_j/r³ (B4), A·m²/m³.
+    pub(super) normal: f64,
+    /// max_j μ_j/r⁵, A·m²/m⁵.
+    pub(super) stiffest: f64,
+    /// max_j ((D_i + D_j)/2)²/r².
+    pub(super) closeness: f64,
 }
 
 impl PairSums {
@@ -453,11 +429,6 @@ impl PairSums {
             closeness: larger(self.closeness, other.closeness),
         }
     }
-}
-
-/// Partners of i in a list, as indices.
-fn partners(list: &NeighborList<2>, i: usize) -> impl Iterator<Item = usize> + '_ {
-    list.of(i).iter().map(|&j| j as usize)
 }
 
 /// Sets `out` to f(0), …, f(n − 1), on the rayon pool from `PARALLEL_FROM` particles on (each

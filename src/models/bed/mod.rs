@@ -13,8 +13,10 @@
 pub mod damper;
 pub mod damper_fall_fit;
 pub mod damper_fit;
+mod exact;
 pub mod forces;
 pub mod integrator;
+mod list_pairs;
 pub mod observables;
 pub mod pair_work;
 pub mod params;
