@@ -88,7 +88,7 @@ fn frictionless_dem_is_the_lone_particle_ensemble_to_round_off() {
 /// P = 0, μ = 0.5 against μ = 0: not equal to round-off. The difference comes from the contact
 /// forces left by stage 3, whose overlaps relax only down to `overlap_tolerance` δ_tol (forces
 /// ~k δ_tol^{3/2}, far above the true weights): friction bounded by them acts during the first
-/// steps. It shrinks with δ_tol (here 9.4e-5 at 1e-5 and 1.0e-6 at 1e-6) toward the floor the
+/// steps. It shrinks with δ_tol (here 8.2e-5 at 1e-5 and 1.4e-6 at 1e-6) toward the floor the
 /// true weights set.
 #[test]
 fn friction_without_pressure_acts_only_through_the_residual_contact_forces() {

@@ -137,17 +137,17 @@ impl Packing {
                 });
             });
             work.add(list.len(), force.par_iter().map(|f| f.3 as usize).sum());
-            let max_force = force
+            // one pass for the three maxima (exact at any thread count)
+            let [max_force, max_stiffness, max_overlap] = force
                 .par_iter()
-                .map(|f| f.0.norm())
-                .reduce(|| 0.0, f64::max);
-            let max_stiffness = force.par_iter().map(|f| f.1).reduce(|| 0.0, f64::max);
+                .map(|f| [f.0.norm(), f.1, f.2])
+                .reduce(|| [0.0; 3], |a, b| [0, 1, 2].map(|k| f64::max(a[k], b[k])));
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
             let status = FlowStatus {
                 steps: step,
-                max_overlap: force.par_iter().map(|f| f.2).reduce(|| 0.0, f64::max),
+                max_overlap,
                 max_force,
                 // serial sum: the same bits at any thread count
                 rms_force: (force.iter().map(|f| f.0.norm_squared()).sum::<f64>() / n as f64)

@@ -104,6 +104,7 @@ impl<'a> Run<'a> {
             control: SolverControl {
                 tolerance,
                 max_sweeps: params.numerics.max_sweeps,
+                over_relaxation: velocity::OVER_RELAXATION,
             },
             friction: FrictionForces::default(),
             lid,

@@ -148,7 +148,20 @@ pub struct SolverControl {
     pub tolerance: f64,
     /// Sweep cap.
     pub max_sweeps: usize,
+    /// Over-relaxation factor ω of the sweeps (1: plain Gauss–Seidel; `OVER_RELAXATION` in
+    /// the alignment runs).
+    pub over_relaxation: f64,
 }
+
+/// Over-relaxation of the alignment runs' sweeps: about 40 % fewer sweeps than plain
+/// Gauss–Seidel at N = 1000 (a scan of 1.0–1.8, results/bench/README.md); the answer is the
+/// same minimizer of Φ (test `over_relaxed_sweeps_reach_the_gauss_seidel_velocities`).
+pub const OVER_RELAXATION: f64 = 1.6;
+
+/// A particle's local Newton stops once its step is below this fraction of the sweep
+/// tolerance: converging it further cannot move the sweep's answer by a visible amount
+/// (quadratic convergence leaves an error far below the step), and it was ~half the cost.
+const LOCAL_TOLERANCE: f64 = 0.1;
 
 /// What a solve did.
 #[derive(Debug, Clone, Copy, Default)]
@@ -174,7 +187,7 @@ pub fn solve(
     while stats.sweeps < control.max_sweeps {
         stats.sweeps += 1;
         let w = *lid_velocity;
-        let mut largest_change = sweep(stage, schedule, motion, w);
+        let mut largest_change = sweep(stage, schedule, motion, w, control);
         if let Some(lid) = &stage.lid {
             *lid_velocity = relax_lid(lid, stage.dt, &lid_contacts, motion);
             largest_change = largest_change.max((*lid_velocity - w).abs());
@@ -189,7 +202,13 @@ pub fn solve(
 
 /// One Gauss–Seidel sweep over the particles with the lid moving at w; returns the largest
 /// change of a particle's velocity.
-fn sweep(stage: &Stage, schedule: &Schedule, motion: &mut [Motion], w: f64) -> f64 {
+fn sweep(
+    stage: &Stage,
+    schedule: &Schedule,
+    motion: &mut [Motion],
+    w: f64,
+    control: SolverControl,
+) -> f64 {
     let velocities = Velocities::new(motion);
     let mut largest_change: f64 = 0.0;
     for colour in &schedule.colours {
@@ -199,7 +218,7 @@ fn sweep(stage: &Stage, schedule: &Schedule, motion: &mut [Motion], w: f64) -> f
                 // SAFETY: the colouring invariant of `Schedule`: while this colour's cells
                 // are relaxed concurrently, particle i and its listed partners are written
                 // by this task alone (same cell) or by no task (other colours).
-                unsafe { change = change.max(relax(stage, &velocities, i as usize, w)) };
+                unsafe { change = change.max(relax(stage, &velocities, i as usize, w, control)) };
             }
             change
         };
@@ -310,14 +329,28 @@ impl<'a> Velocities<'a> {
 /// # Safety
 /// No other thread may write particle i or any of its listed partners, nor read particle i,
 /// meanwhile.
-unsafe fn relax(stage: &Stage, velocities: &Velocities, i: usize, lid_velocity: f64) -> f64 {
+unsafe fn relax(
+    stage: &Stage,
+    velocities: &Velocities,
+    i: usize,
+    lid_velocity: f64,
+    control: SolverControl,
+) -> f64 {
     // SAFETY: particle i is this task's alone (the caller's contract).
     let old = unsafe { velocities.read(i) };
     let partners = stage.contacts.of(i).iter().map(|c| {
         // SAFETY: j is a listed partner of i (the caller's contract).
         stage.partner_velocity(c, lid_velocity, |j| unsafe { velocities.read(j) })
     });
-    let new = solve_particle(stage, i, stage.force[i], stage.torque[i], old, partners);
+    let new = solve_particle(
+        stage,
+        i,
+        stage.force[i],
+        stage.torque[i],
+        old,
+        partners,
+        control,
+    );
     // SAFETY: as for the read of `old`.
     unsafe { velocities.write(i, new) };
     (new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm()
@@ -438,7 +471,9 @@ where
 
 /// Damped Newton on particle i's local problem under the external `force` and `torque`,
 /// started at `start`, with the surface velocity of each listed partner (in contact-list
-/// order) held fixed.
+/// order) held fixed; then over-relaxed to start + ω (minimizer − start) where that keeps at
+/// least half of the minimizer's decrease of Φ (as it does for ω ≤ 1 + 1/√2 on a quadratic):
+/// every visit lowers Φ, and the fixed point, the minimizer of Φ, is the same.
 pub(super) fn solve_particle(
     stage: &Stage,
     i: usize,
@@ -446,6 +481,7 @@ pub(super) fn solve_particle(
     torque: Vector3<f64>,
     start: Motion,
     partners: impl Iterator<Item = Vector3<f64>>,
+    control: SolverControl,
 ) -> Motion {
     let mut local = Local {
         stage,
@@ -463,7 +499,17 @@ pub(super) fn solve_particle(
             local.overflow.push(w);
         }
     }
-    let mut u = newton(&local, start);
+    let (mut u, [phi_start, phi_end]) = newton(&local, start, LOCAL_TOLERANCE * control.tolerance);
+    let omega = control.over_relaxation;
+    if omega != 1.0 {
+        let beyond = Motion {
+            v: start.v + omega * (u.v - start.v),
+            w: start.w + omega * (u.w - start.w),
+        };
+        if local.value(&beyond) <= phi_end + 0.5 * (phi_start - phi_end) {
+            u = beyond;
+        }
+    }
     if local.frictionless() {
         // Φ separates: the rotation is r² ω = T exactly, whatever the contacts do (so with
         // μ = 0 every particle turns as if alone, to round-off; spec align.md, "Studies").
@@ -472,10 +518,11 @@ pub(super) fn solve_particle(
     u
 }
 
-fn newton(local: &Local, start: Motion) -> Motion {
+/// The local minimizer (to a step below `tolerance`), and Φ at the start and there.
+fn newton(local: &Local, start: Motion, tolerance: f64) -> (Motion, [f64; 2]) {
     let mut u = start;
     let mut phi = local.value(&u);
-    let scale = local.stage.slip_scale;
+    let phi_start = phi;
     for _ in 0..50 {
         let (grad, hess) = local.derivatives(&u);
         let Some(chol) = hess.cholesky() else { break };
@@ -498,11 +545,11 @@ fn newton(local: &Local, start: Motion) -> Motion {
         u = trial;
         let moved =
             t * (step.fixed_rows::<3>(0).norm() + local.radius * step.fixed_rows::<3>(3).norm());
-        if moved <= 1e-6 * scale {
+        if moved <= tolerance {
             break;
         }
     }
-    u
+    (u, [phi_start, phi])
 }
 
 #[cfg(test)]
@@ -541,6 +588,7 @@ mod tests {
             SolverControl {
                 tolerance: 1e-14,
                 max_sweeps: 500,
+                over_relaxation: OVER_RELAXATION,
             },
         );
         assert!(stats.converged);
@@ -556,6 +604,72 @@ mod tests {
         }
         // Equal and opposite tangential forces: centres drift in ±y by equal amounts.
         assert!((motion[0].v + motion[1].v).norm() < 1e-12);
+    }
+
+    /// A settled bed of 150 spheres, pushed down and twisted by random torques: the
+    /// over-relaxed sweeps converge to the plain Gauss–Seidel velocities (the same minimizer of
+    /// Φ) within the solver tolerance.
+    #[test]
+    fn over_relaxed_sweeps_reach_the_gauss_seidel_velocities() {
+        use crate::materials::MaterialDb;
+        use crate::models::align::dem::contacts::Container;
+        use crate::models::align::dem::Packing;
+        use crate::models::align::AlignParams;
+        use rand::{RngExt, SeedableRng};
+        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
+        let mut params = AlignParams::paper_defaults(material, 3.2e6);
+        params.particles = 150;
+        let packing = Packing::generate(&params.packing(), 1).unwrap();
+        let (positions, radius) = (&packing.position, &packing.radius);
+        let law = ContactLaw {
+            effective_modulus: 0.55,
+            friction: 0.2,
+            wall_friction: 0.2,
+            skin: 0.1,
+        };
+        let mut list = NeighborList::new(0.3);
+        list.build(positions, radius);
+        let container = Container {
+            top: None,
+            ..packing.container
+        };
+        let mut contacts = ContactSet::default();
+        contacts.rebuild(positions, radius, &list, &container, &law);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut spin = || 1e-3 * (2.0 * rng.random::<f64>() - 1.0);
+        let torque: Vec<_> = radius
+            .iter()
+            .map(|r| r.powi(3) * Vector3::new(spin(), spin(), spin()))
+            .collect();
+        let force = vec![Vector3::new(0.0, 0.0, -1e-4); radius.len()];
+        let stage = Stage {
+            contacts: &contacts,
+            law: &law,
+            radius,
+            force: &force,
+            torque: &torque,
+            dt: 20.0,
+            slip_scale: 1e-5,
+            lid: None,
+        };
+        let schedule = Schedule::new(positions, 3.0, usize::MAX);
+        let tolerance = 1e-10;
+        let solved = |over_relaxation| {
+            let mut motion = vec![Motion::default(); radius.len()];
+            let control = SolverControl {
+                tolerance,
+                max_sweeps: 5000,
+                over_relaxation,
+            };
+            let stats = solve(&stage, &schedule, &mut motion, &mut 0.0, control);
+            assert!(stats.converged, "ω = {over_relaxation}");
+            motion
+        };
+        let (plain, over) = (solved(1.0), solved(OVER_RELAXATION));
+        for ((a, b), r) in plain.iter().zip(&over).zip(radius) {
+            let gap = (a.v - b.v).norm() + r * (a.w - b.w).norm();
+            assert!(gap < 100.0 * tolerance, "{gap:e}");
+        }
     }
 
     #[test]
