@@ -16,9 +16,11 @@
 # cell of the same width W (in D) with WCA walls at its four sides, at magopt's step-mean
 # packing fraction: the piston height varies over the cycle and the pairs per particle with
 # it, and the step mean is what the cycle's mean cost per step sees. LAMMPS keeps that height
-# fixed (no piston) and its discs damped (`fix viscous`) from a jittered grid; both codes'
-# pairs per particle are printed (and the per-pair ratio does not depend on a residual
-# difference). Each measurement runs twice; the better run is kept.
+# fixed (no piston, no gravity: its discs fill the cell evenly, while magopt's crowd towards
+# the floor and have more partners at the same mean packing fraction) and its discs damped
+# (`fix viscous`) from a jittered grid; both codes' pairs per particle are printed, and the
+# per-pair ratio does not depend on them. Each measurement runs twice; the better run (per
+# CPU second) is kept.
 # Usage: [BED_CASES="368:5.63mm/s 3680:56.3mm/s"] bash bench/lammps/bed-pairs.sh [magopt binary]
 # (N:piston speed pairs)
 set -euo pipefail
