@@ -348,7 +348,7 @@ impl ForceField {
     pub fn pair_terms(&self) -> usize {
         let n = self.out.len();
         match &self.pairs {
-            Pairs::All => n * n.saturating_sub(1),
+            Pairs::All(_) => n * n.saturating_sub(1),
             Pairs::Cut {
                 list, split: None, ..
             } => list.len(),
@@ -366,7 +366,7 @@ impl ForceField {
     pub fn pairs_within_cutoff(&self, position: &[Vector2<f64>]) -> usize {
         let n = position.len();
         match &self.pairs {
-            Pairs::All => n * n.saturating_sub(1),
+            Pairs::All(_) => n * n.saturating_sub(1),
             Pairs::Cut {
                 list,
                 every_step: true,
@@ -374,8 +374,11 @@ impl ForceField {
             } => list.len(),
             Pairs::Cut { list, cutoff2, .. } => (0..n)
                 .map(|i| {
-                    partners(list, i)
-                        .filter(|&j| (position[i] - position[j]).norm_squared() < *cutoff2)
+                    list.of(i)
+                        .iter()
+                        .filter(|&&j| {
+                            (position[i] - position[j as usize]).norm_squared() < *cutoff2
+                        })
                         .count()
                 })
                 .sum(),
