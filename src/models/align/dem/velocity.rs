@@ -14,8 +14,9 @@
 //! (it sets the friction bound), and √(|v_t|² + v_ε²) the regularized Coulomb law (A5). Its
 //! stationarity conditions are (A6)–(A7) with these forces. Block Gauss–Seidel: each particle in
 //! turn minimizes Φ over its own six unknowns (damped Newton with a 6×6 Cholesky solve and
-//! Armijo backtracking) with its neighbours held; sweeps repeat until no velocity moves by more
-//! than the tolerance. Warm-started from the previous stage, few sweeps are needed.
+//! Armijo backtracking) with its neighbours held, and the move is over-relaxed
+//! (`OVER_RELAXATION`); sweeps repeat until no velocity moves by more than the tolerance.
+//! Warm-started from the previous stage, few sweeps are needed.
 
 use std::marker::PhantomData;
 
