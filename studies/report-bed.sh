@@ -382,15 +382,16 @@ EOF
       "$dir/forces-a0.6-R$r-analysis.json"; done | awk '
     { s = (NR == 1 || $1 < s) ? $1 : s; a = $2 < 0 ? -$2 : $2; if (a < 70) off++
       if ($3 == "null" || $4 == "null") next
-      if ($4 + 0 > $3 + 0) layers++; if ($3 + 0 > $4 + 0) chains++ }
-    END { printf "%.2f %d %d %d", s, off + 0, layers + 0, chains + 0 }')
-  read -r s_min off layers chains <<< "$readings"
+      d = $4 - $3; if (d < 0.05 && d > -0.05) even++; else if (d > 0) layers++; else chains++ }
+    END { printf "%.2f %d %d %d %d", s, off + 0, layers + 0, chains + 0, even + 0 }')
+  read -r s_min off layers chains even <<< "$readings"
   direction=$(awk -v s="$s_min" -v off="$off" 'BEGIN {
     if (s >= 0.3 && off == 0) print "differs: the forces are not isotropic (S ≥ " s " at every R, axis within 20° of vertical). During compression the plates'"'"' dry friction holds each disc against the piston'"'"'s advance, so the net magnetic force, which friction and gravity balance, lies along the compression axis. The source draws its arrows without a measure; its reading \"no preferred direction\" is not what magopt finds"
     else if (s < 0.3) print "agrees: the force directions are close to isotropic (S < 0.3 at some R)"
     else print "partly: S ≥ " s " but the axis is not vertical at every R" }')
-  pattern=$(awk -v l="$layers" -v c="$chains" 'BEGIN {
-    if (l == 3 && c == 0) print "the fluctuations of Eq. (4.35) are correlated between neighbours, more across the force axis than along it at every R: rows of like forces (layers, set by the distance from the walls and the piston), not lines along the forces; the source'"'"'s conclusion, no force chains, holds"
+  pattern=$(awk -v l="$layers" -v c="$chains" -v e="$even" 'BEGIN {
+    if (e == 3) print "the fluctuations of Eq. (4.35) are correlated between neighbours, equally along and across the force axis (within 0.05 at every R): a smooth variation over the bed (fluctuations.png: it changes with height), neither lines along the forces (chains) nor rows across them; the source'"'"'s conclusion, no force chains, holds, though its \"no pattern\" does not"
+    else if (l == 3 && c == 0) print "the fluctuations of Eq. (4.35) are correlated between neighbours, more across the force axis than along it at every R: rows of like forces (layers, set by the distance from the walls and the piston), not lines along the forces; the source'"'"'s conclusion, no force chains, holds"
     else if (c + l > 0 && l == 0) print "the fluctuations correlate more along the force axis than across it at every R with pairs both ways (" c " of 3): columns of like forces. Columns arise from chains and also from the side walls (the discs next to a wall feel its repulsion all the way up), so this is necessary for chains but not proof of them; the source reads no pattern"
     else print "the fluctuations'"'"' correlation along and across the force axis changes order with R: no consistent chain or layer pattern" }')
   printf '\nVerdict on the directions (Fig. 4.23): %s.\n\nVerdict on the pattern (Fig. 4.24): %s.\n' "$direction" "$pattern"

@@ -184,6 +184,8 @@ fn snapshots_follow_the_contract() {
         "vy_m_per_s",
         "vz_m_per_s",
         "mass_kg",
+        "magnetic_force_x_N",
+        "magnetic_force_y_N",
         "force_magnitude_N",
     ] {
         assert!(
@@ -192,20 +194,34 @@ fn snapshots_follow_the_contract() {
         );
     }
     assert!(matches!(table.column("type"), Some(ColumnData::I64(_))));
+    // the magnitude column is the magnetic force's length
+    let column = |name: &str| match table.column(name) {
+        Some(ColumnData::F64(v)) => v.clone(),
+        _ => panic!("{name}"),
+    };
+    let (fx, fy, f) = (
+        column("magnetic_force_x_N"),
+        column("magnetic_force_y_N"),
+        column("force_magnitude_N"),
+    );
+    for k in 0..f.len() {
+        assert!((fx[k].hypot(fy[k]) - f[k]).abs() <= 1e-12 * f[k]);
+    }
     let xyz = std::fs::read_to_string(dir.join("max.xyz")).unwrap();
     let lines: Vec<&str> = xyz.lines().collect();
     assert_eq!(lines[0], "24");
     assert!(lines[1].contains(
         "Properties=type:I:1:species:S:1:pos:R:3:radius:R:1:velo:R:3:masses:R:1:momenta:R:3:\
-         force_magnitude:R:1 "
+         magnetic_force:R:3:force_magnitude:R:1 "
     ));
     assert_eq!(lines.len(), 26);
-    assert_eq!(lines[2].split_whitespace().count(), 14);
+    assert_eq!(lines[2].split_whitespace().count(), 17);
     let frame = read_xyz(&xyz, 0).unwrap();
     assert_eq!(frame, o.snapshots[1].frame());
     let dump = std::fs::read_to_string(dir.join("max.dump")).unwrap();
     let mut from_dump = read_lammps_dump(&dump).unwrap();
-    from_dump.extra[0].unit = "N".into();
+    // a dump has no units: both extra columns are in N
+    from_dump.extra.iter_mut().for_each(|p| p.unit = "N".into());
     assert_eq!(from_dump, frame);
     assert!(dir.join("max.vtk").exists());
     std::fs::remove_dir_all(dir).ok();
