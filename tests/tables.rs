@@ -210,7 +210,15 @@ fn analyze_reads_every_particle_format_and_chooses_frames() {
     let snap = bed.join("snapshots");
     // the particle table as CSV
     let table = read_parquet(&snap.join("end.parquet")).unwrap();
-    let names = ["x_m", "y_m", "radius_m", "type", "force_magnitude_N"];
+    let names = [
+        "x_m",
+        "y_m",
+        "radius_m",
+        "type",
+        "force_magnitude_N",
+        "magnetic_force_x_N",
+        "magnetic_force_y_N",
+    ];
     let mut csv = names.join(",") + "\n";
     for i in 0..table.n_rows() {
         let row: Vec<String> = names
