@@ -23,9 +23,7 @@
 set -euo pipefail
 here=$(dirname "$0")
 source "$here/lib.sh"
-bin=${1:-target/release/magopt}
-require_lmp
-scratch
+prepare "$@"
 echo "align settling contacts vs LAMMPS gran/hertz/history, 1 core each ($(machine))"
 printf '%6s %-7s %8s %10s %9s %14s %14s %14s %14s\n' N code steps contacts/p list/p \
   p-steps/cpu-s contacts/cpu-s p-steps/wall-s contacts/wall-s

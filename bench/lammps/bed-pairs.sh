@@ -26,9 +26,7 @@
 set -euo pipefail
 here=$(dirname "$0")
 source "$here/lib.sh"
-bin=${1:-target/release/magopt}
-require_lmp
-scratch
+prepare "$@"
 echo "bed pair kernel vs LAMMPS, 1 core each ($(machine))"
 printf '%6s %-7s %10s %9s %9s %7s %14s %14s %14s %14s\n' N code steps pairs/p list/p builds \
   p-steps/cpu-s pairs/cpu-s p-steps/wall-s pairs/wall-s

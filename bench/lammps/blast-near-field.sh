@@ -17,9 +17,7 @@
 # Usage: bash bench/lammps/blast-near-field.sh [magopt binary]
 set -euo pipefail
 source "$(dirname "$0")/lib.sh"
-bin=${1:-target/release/magopt}
-require_lmp
-scratch
+prepare "$@"
 n=2000; steps=20
 python3 - "$work/near.table" <<'PY'
 import sys, math

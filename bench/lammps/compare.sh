@@ -8,9 +8,7 @@
 set -euo pipefail
 here=$(dirname "$0")
 source "$here/lib.sh"
-bin=${1:-target/release/magopt}
-require_lmp
-scratch
+prepare "$@"
 echo "start: $(machine)"
 for script in blast-near-field bed-pairs align-hertz; do
   bash "$here/$script.sh" "$bin" | tee "$work/$script.out"

@@ -9,6 +9,14 @@ require_lmp() {
   command -v jq > /dev/null || { echo "jq not installed: LAMMPS comparison skipped"; exit 0; }
 }
 
+# The common start of every script: $bin from its first argument (default
+# target/release/magopt), LAMMPS and jq present, a scratch directory in $work.
+prepare() {
+  bin=${1:-target/release/magopt}
+  require_lmp
+  scratch
+}
+
 # A scratch directory ($KEEP keeps it) in $work.
 scratch() {
   work=${KEEP:-$(mktemp -d)}

@@ -124,18 +124,16 @@ pub fn cells_picture(path: &Path, snapshot: &Snapshot, structure: &Structure) ->
         ("≥ 8 sides".to_string(), MANY),
         ("not counted".to_string(), NOT_COUNTED),
     ];
-    let canvas = Canvas {
-        title: format!(
+    render_map(
+        path,
+        format!(
             "Voronoi cells: n5 = {:.3}, n6 = {:.3}, n7 = {:.3}, Ψ6 = {:.3}",
             m.n5, m.n6, m.n7, m.psi6
         ),
-        x_label: "x (m)".into(),
-        y_label: "y (m)".into(),
         shapes,
         legend,
-        color_bar: None,
-    };
-    render_canvas_png(path, &canvas, WIDTH)
+        None,
+    )
 }
 
 /// Particles coloured by a per-particle value (viridis, linear from its min to its max; NaN
@@ -164,18 +162,36 @@ pub fn value_picture(
             fill: viridis((v - lo) / span),
         })
         .collect();
-    let canvas = Canvas {
-        title: title.into(),
-        x_label: "x (m)".into(),
-        y_label: "y (m)".into(),
+    render_map(
+        path,
+        title,
         shapes,
-        legend: Vec::new(),
-        color_bar: Some(ColorBar {
+        Vec::new(),
+        Some(ColorBar {
             label: label.into(),
             lo,
             hi,
             map: viridis,
         }),
+    )
+}
+
+/// Renders a picture of the sample in metres (equal scales): title, shapes, legend entries and
+/// an optional colour bar.
+fn render_map(
+    path: &Path,
+    title: impl Into<String>,
+    shapes: Vec<Shape>,
+    legend: Vec<(String, Rgb)>,
+    color_bar: Option<ColorBar>,
+) -> Result<()> {
+    let canvas = Canvas {
+        title: title.into(),
+        x_label: "x (m)".into(),
+        y_label: "y (m)".into(),
+        shapes,
+        legend,
+        color_bar,
     };
     render_canvas_png(path, &canvas, WIDTH)
 }
@@ -228,15 +244,13 @@ pub fn force_vector_picture(
             (format!("species {s}: {:.3e} N", largest(*s)), colour)
         })
         .collect();
-    let canvas = Canvas {
-        title: "Force vectors, per species over its largest force".into(),
-        x_label: "x (m)".into(),
-        y_label: "y (m)".into(),
+    render_map(
+        path,
+        "Force vectors, per species over its largest force",
         shapes,
         legend,
-        color_bar: None,
-    };
-    render_canvas_png(path, &canvas, WIDTH)
+        None,
+    )
 }
 
 /// An arrow from `tail` along `v`: shaft and two barbs of a quarter of its length at ±25°.
