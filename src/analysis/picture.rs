@@ -210,13 +210,13 @@ pub fn force_vector_picture(
     force: &[Vector2<f64>],
 ) -> Result<()> {
     let species = snapshot.species_or_zero();
-    let largest = |s: i64| {
-        force
-            .iter()
-            .zip(&species)
-            .filter(|(_, k)| **k == s)
-            .fold(0.0, |a: f64, (f, _)| a.max(f.norm()))
-    };
+    // each species' largest force, in one pass
+    let mut largest_of = std::collections::BTreeMap::new();
+    for (f, s) in force.iter().zip(&species) {
+        let m: &mut f64 = largest_of.entry(*s).or_insert(0.0);
+        *m = m.max(f.norm());
+    }
+    let largest = |s: i64| largest_of[&s];
     let length = mean_bond(snapshot, structure);
     let r = radii(snapshot, structure, 0.3);
     let mut shapes: Vec<Shape> = (snapshot.positions.iter().zip(&r))
@@ -234,14 +234,11 @@ pub fn force_vector_picture(
             shapes.push(arrow(*p, f * (length / scale), colour));
         }
     }
-    let mut kinds = species.clone();
-    kinds.sort_unstable();
-    kinds.dedup();
-    let legend = kinds
+    let legend = largest_of
         .iter()
-        .map(|s| {
+        .map(|(s, m)| {
             let colour = SPECIES[s.rem_euclid(SPECIES.len() as i64) as usize];
-            (format!("species {s}: {:.3e} N", largest(*s)), colour)
+            (format!("species {s}: {m:.3e} N"), colour)
         })
         .collect();
     render_map(
