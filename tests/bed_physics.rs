@@ -240,6 +240,23 @@ fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums() {
     }
 }
 
+/// The quadtree with θ = 0 opens every node: its far sums are the exact sums beyond r_s, and
+/// with the near list the cycle is the exact one to round-off (another summation order).
+#[test]
+fn a_tree_that_opens_every_node_reproduces_exact_sums() {
+    let mut p = small_bed();
+    p.particles = Some(60);
+    p.neighbors = Neighbors::Exact;
+    let exact = run_cycle(&p, 3, &|_| {});
+    p.neighbors = Neighbors::Tree;
+    p.opening_angle = 0.0;
+    let tree = run_cycle(&p, 3, &|_| {});
+    assert!(tree.failure.is_none(), "{:?}", tree.failure);
+    assert_eq!(tree.steps, exact.steps);
+    let (a, b) = (tree.max_force.unwrap(), exact.max_force.unwrap());
+    assert!((a - b).abs() <= 1e-11 * b, "F_max {a} vs {b}");
+}
+
 #[test]
 fn the_list_radius_changes_the_rebuilds_but_no_result() {
     let mut p = small_bed();
@@ -271,10 +288,14 @@ fn results_do_not_depend_on_the_thread_count() {
     p.settle_time = 0.0;
     p.piston_speed = 2.0;
     p.max_packing_fraction = Some(0.13);
-    p.neighbors = Neighbors::Verlet;
     // 300 discs: parallel pair sums; 4500: also parallel kicks, drifts and list builds, with
-    // the far field held for 3 steps
-    for (n, k) in [(300, 1), (4500, 3)] {
+    // the far field held for 3 steps; the quadtree's leaves run in parallel
+    for (neighbors, n, k) in [
+        (Neighbors::Verlet, 300, 1),
+        (Neighbors::Verlet, 4500, 3),
+        (Neighbors::Tree, 1000, 2),
+    ] {
+        p.neighbors = neighbors;
         p.particles = Some(n);
         p.far_field_interval = k;
         let run = |threads| {

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 
 use super::exact::ExactSums;
+use super::far_field::FarField;
 use super::list_pairs::{HalfList, Separation};
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
@@ -48,6 +49,12 @@ enum Pairs {
         /// The pair terms of `list` (of its far pairs in a split evaluation).
         half: HalfList,
     },
+    /// Pairs closer than r_s from a list every step, every pair beyond r_s from the quadtree
+    /// every `interval` steps (no cut-off).
+    Tree {
+        split: Box<Split>,
+        tree: FarField,
+    },
 }
 
 /// Multiple time stepping of the pair sums: pairs closer than the near cut-off r_s are summed
@@ -64,6 +71,37 @@ struct Split {
     near_half: HalfList,
     far: Vec<PairSums>,
     due: usize,
+}
+
+impl Split {
+    /// Near list of radius r_s with the skin r_v − r_c, far sums every `far_field_interval`.
+    fn new(params: &BedParams, d1: f64, n: usize) -> Self {
+        let (rc, rv) = (
+            params.cutoff.diameters(d1) * d1,
+            params.list_radius.diameters(d1) * d1,
+        );
+        let rs = params.near_cutoff.diameters(d1) * d1;
+        Self {
+            interval: params.far_field_interval,
+            near: NeighborList::new(rv - rc),
+            near_radii: vec![0.5 * rs; n],
+            near2: rs * rs,
+            near_half: HalfList::default(),
+            far: Vec::new(),
+            due: 0,
+        }
+    }
+
+    /// Brings the near list and its pair terms up to date; returns whether the far sums are
+    /// due this step.
+    fn step(&mut self, position: &[Vector2<f64>]) -> bool {
+        let due = self.due == 0;
+        self.due = if due { self.interval } else { self.due } - 1;
+        self.near.update(position, &self.near_radii);
+        self.near_half
+            .evaluate(&self.near, position, (0.0, self.near2));
+        due
+    }
 }
 
 /// The force model of one run: constants, neighbour structure and the per-particle output.
@@ -98,6 +136,15 @@ impl ForceField {
         let n = particles.len();
         let pairs = match params.neighbors {
             Neighbors::Exact => Pairs::All(ExactSums::new(particles)),
+            Neighbors::Tree => Pairs::Tree {
+                split: Box::new(Split::new(params, d1, n)),
+                tree: FarField::new(
+                    params.opening_angle,
+                    params.near_cutoff.diameters(d1) * d1,
+                    &particles.moment,
+                    &particles.tilt_sin,
+                ),
+            },
             Neighbors::SourceVerlet => {
                 let rv = params.list_radius.diameters(d1) * d1;
                 Pairs::Cut {
@@ -118,23 +165,13 @@ impl ForceField {
                     params.list_radius.diameters(d1) * d1,
                 );
                 let every_step = kind == Neighbors::Cells;
-                let rs = params.near_cutoff.diameters(d1) * d1;
                 Pairs::Cut {
                     list: NeighborList::new(if every_step { 0.0 } else { rv - rc }),
                     radii: vec![0.5 * rc; n],
                     cutoff2: rc * rc,
                     every_step,
-                    split: (params.far_field_interval > 1).then(|| {
-                        Box::new(Split {
-                            interval: params.far_field_interval,
-                            near: NeighborList::new(rv - rc),
-                            near_radii: vec![0.5 * rs; n],
-                            near2: rs * rs,
-                            near_half: HalfList::default(),
-                            far: Vec::new(),
-                            due: 0,
-                        })
-                    }),
+                    split: (params.far_field_interval > 1)
+                        .then(|| Box::new(Split::new(params, d1, n))),
                     half: HalfList::default(),
                 }
             }
@@ -163,6 +200,7 @@ impl ForceField {
         match &self.pairs {
             Pairs::All(_) => 0,
             Pairs::Cut { list, .. } => list.builds(),
+            Pairs::Tree { split, .. } => split.near.builds(),
         }
     }
 
@@ -192,7 +230,8 @@ impl ForceField {
         match &mut self.pairs {
             Pairs::Cut {
                 split: Some(split), ..
-            } => Some(split),
+            }
+            | Pairs::Tree { split, .. } => Some(split),
             _ => None,
         }
     }
@@ -200,16 +239,22 @@ impl ForceField {
     /// Brings the neighbour lists and their pair terms up to date for this step; returns
     /// whether the far part of a split evaluation is due (its list is then updated too).
     fn update_lists(&mut self, position: &[Vector2<f64>]) -> bool {
-        let Pairs::Cut {
-            list,
-            radii,
-            cutoff2,
-            every_step,
-            split,
-            half,
-        } = &mut self.pairs
-        else {
-            return false;
+        let (list, radii, cutoff2, every_step, split, half) = match &mut self.pairs {
+            Pairs::All(_) => return false,
+            Pairs::Tree { split, tree } => {
+                if split.step(position) {
+                    tree.evaluate(position, &mut split.far);
+                }
+                return false;
+            }
+            Pairs::Cut {
+                list,
+                radii,
+                cutoff2,
+                every_step,
+                split,
+                half,
+            } => (list, radii, cutoff2, every_step, split, half),
         };
         let Some(split) = split else {
             if *every_step {
@@ -220,11 +265,7 @@ impl ForceField {
             half.evaluate(list, position, (0.0, *cutoff2));
             return false;
         };
-        let due = split.due == 0;
-        split.due = if due { split.interval } else { split.due } - 1;
-        split.near.update(position, &split.near_radii);
-        let near = &mut split.near_half;
-        near.evaluate(&split.near, position, (0.0, split.near2));
+        let due = split.step(position);
         if due {
             list.update(position, radii);
             half.evaluate(list, position, (split.near2, *cutoff2));
@@ -248,7 +289,8 @@ impl ForceField {
             } => self.pair_sums(i, half.of(list, i)),
             Pairs::Cut {
                 split: Some(split), ..
-            } => self
+            }
+            | Pairs::Tree { split, .. } => self
                 .pair_sums(i, split.near_half.of(&split.near, i))
                 .plus(&split.far[i]),
         };
@@ -344,7 +386,8 @@ impl ForceField {
     /// Ordered pair terms (i, j) the last evaluation's loops ran over, masked ones included
     /// (a benchmark count): every listed partner of every particle, so each unordered pair
     /// twice (the lists are full); N(N − 1) for exact sums; with multiple time stepping the
-    /// near list, plus the far list on the steps its sums were due.
+    /// near list, plus the far list (the tree's pair and node terms) on the steps its sums
+    /// were due.
     pub fn pair_terms(&self) -> usize {
         let n = self.out.len();
         match &self.pairs {
@@ -357,6 +400,9 @@ impl ForceField {
                 split: Some(split),
                 ..
             } => split.near.len() + usize::from(split.due + 1 == split.interval) * list.len(),
+            Pairs::Tree { split, tree } => {
+                split.near.len() + usize::from(split.due + 1 == split.interval) * tree.terms()
+            }
         }
     }
 
@@ -366,7 +412,7 @@ impl ForceField {
     pub fn pairs_within_cutoff(&self, position: &[Vector2<f64>]) -> usize {
         let n = position.len();
         match &self.pairs {
-            Pairs::All(_) => n * n.saturating_sub(1),
+            Pairs::All(_) | Pairs::Tree { .. } => n * n.saturating_sub(1),
             Pairs::Cut {
                 list,
                 every_step: true,
@@ -410,7 +456,7 @@ struct Partner {
 }
 
 /// Running sums of one particle's pair loop (without the μ_i and 3μ0/4π factors).
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(super) struct PairSums {
     /// Σ_j μ_j d/r⁵ with d = r_i − r_j, A·m²/m⁴.
     pub(super) force: Vector2<f64>,

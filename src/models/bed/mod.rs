@@ -14,6 +14,7 @@ pub mod damper;
 pub mod damper_fall_fit;
 pub mod damper_fit;
 mod exact;
+mod far_field;
 pub mod forces;
 pub mod integrator;
 mod list_pairs;

@@ -78,6 +78,10 @@ pub enum Neighbors {
     /// disc has moved `rebuild_skin` since the last build (its Eq. (5.3)). Between builds it
     /// keeps pairs that have left r_v and misses pairs that have entered it.
     SourceVerlet,
+    /// No cut-off: pairs closer than `near_cutoff` r_s from a Verlet list every step, every
+    /// pair beyond it from a Barnes–Hut quadtree with quadrupoles (opening angle
+    /// `opening_angle`) every `far_field_interval` steps (docs/bed.md, "Far field").
+    Tree,
 }
 
 /// How dry friction is integrated (see `integrator`).
@@ -224,8 +228,12 @@ pub struct BedParams {
     /// Multiple time stepping: pairs beyond `near_cutoff` are summed every this many steps and
     /// held in between (1: every pair every step, the default; needs Verlet lists).
     pub far_field_interval: usize,
-    /// Near cut-off r_s in units of D_1 of the multiple time stepping (3; 0 < r_s < r_c).
+    /// Near cut-off r_s in units of D_1 of the multiple time stepping and of `tree` (3;
+    /// 0 < r_s, and r_s < r_c with `verlet`).
     pub near_cutoff: Reach,
+    /// Opening angle θ of `tree`: a group of discs acts through its multipoles when its extent
+    /// is below θ times its gap to the summing leaf (0.5; 0 sums every pair exactly).
+    pub opening_angle: f64,
     /// Δt = factor / ω_max, ω_max² the stiffest repulsion (pair or wall) at the closest
     /// approach over the lightest mass (0.2; the piston force at maximum compression is converged to < 1e-4 there, see tests/bed_physics.rs); the step is chosen anew every step.
     pub time_step_factor: f64,
@@ -292,6 +300,7 @@ impl BedParams {
             rebuild_skin: Reach::Diameters(4.13),
             far_field_interval: 1,
             near_cutoff: Reach::Diameters(3.0),
+            opening_angle: 0.5,
             time_step_factor: 0.2,
             max_time_step: 1e-3,
             record_interval: None,

@@ -408,13 +408,15 @@ static PARAMETERS: &[BedParam] = &[
         "neighbors",
         "Neighbour handling: exact (all pairs), cells (cut-off list every step), verlet (list \
          radius r_v, cut-off r_c), source-verlet (the source's: every pair of the r_v list \
-         summed, rebuilt after a displacement of rebuild_skin)",
+         summed, rebuilt after a displacement of rebuild_skin), tree (no cut-off: a list \
+         inside near_cutoff, a Barnes-Hut quadtree beyond it)",
         neighbors,
         [
             ("exact", Neighbors::Exact),
             ("cells", Neighbors::Cells),
             ("verlet", Neighbors::Verlet),
-            ("source-verlet", Neighbors::SourceVerlet)
+            ("source-verlet", Neighbors::SourceVerlet),
+            ("tree", Neighbors::Tree)
         ]
     ),
     Param {
@@ -452,14 +454,14 @@ static PARAMETERS: &[BedParam] = &[
             "far_field_interval",
             K::Count,
             "Multiple time stepping: sum the pairs beyond near_cutoff every K steps and hold \
-             them in between (verlet only; 1: every pair every step)"
+             them in between (verlet and tree only; 1: every pair every step)"
         ),
         far_field_interval
     ),
     Param {
         spec: reach(
             "near_cutoff",
-            "Near cut-off r_s of the multiple time stepping",
+            "Near cut-off r_s of the multiple time stepping and of tree",
         ),
         get: |p| reach_value(p.near_cutoff),
         set: |_, p, v| {
@@ -467,6 +469,16 @@ static PARAMETERS: &[BedParam] = &[
             Ok(())
         },
     },
+    number_param!(
+        ParamSpec::new(
+            "opening_angle",
+            K::Number,
+            "Opening angle θ of tree: a group acts through its multipoles when its extent is \
+             below θ times its gap (0 sums every pair exactly)"
+        )
+        .within(Bounds::FRACTION),
+        opening_angle
+    ),
     number_param!(
         ParamSpec::new(
             "time_step_factor",

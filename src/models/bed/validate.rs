@@ -23,15 +23,16 @@ impl BedParams {
                 "cutoff {rc} D1 and list_radius {rv} D1: need r_c ≤ r_v"
             )));
         }
+        let rs = self.near_cutoff.diameters(d1);
         if self.far_field_interval > 1 {
-            if self.neighbors != Neighbors::Verlet {
+            if !matches!(self.neighbors, Neighbors::Verlet | Neighbors::Tree) {
                 return Err(Error::input(format!(
-                    "far_field_interval {}: multiple time stepping needs neighbors = verlet",
+                    "far_field_interval {}: multiple time stepping needs neighbors = verlet or \
+                     tree",
                     self.far_field_interval
                 )));
             }
-            let rs = self.near_cutoff.diameters(d1);
-            if rs >= rc {
+            if self.neighbors == Neighbors::Verlet && rs >= rc {
                 return Err(Error::input(format!(
                     "near_cutoff {rs} D1: need r_s < r_c = {rc} D1"
                 )));
