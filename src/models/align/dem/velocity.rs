@@ -429,21 +429,18 @@ impl Local<'_> {
         let mut phi = self.own_value(u);
         let mut gv = u.v - self.force;
         let mut gw = r * r * u.w - self.torque;
-        let mut hess = Matrix6::zeros();
-        for k in 0..3 {
-            hess[(k, k)] = 1.0;
-            hess[(k + 3, k + 3)] = r * r;
-        }
+        // the Hessian's blocks: vv, ω-v (its transpose is v-ω) and ωω
+        let (mut hvv, mut hwv, mut hww) = (Matrix3::zeros(), Matrix3::zeros(), Matrix3::zeros());
         for (c, p) in self.terms() {
             let e = c.normal;
             let rel = u.v + r * u.w.cross(&e) - p.velocity;
             let normal_rate = rel.dot(&e);
             let end = c.overlap + dt * normal_rate;
+            let outer = e * e.transpose();
             if end > 0.0 {
                 phi += 0.4 * c.hertz * end * end * end.sqrt() / dt;
                 gv += c.normal_force_at(end) * e;
-                let block = dt * c.stiffness_at(end) * e * e.transpose();
-                hess.fixed_view_mut::<3, 3>(0, 0).add_assign(&block);
+                hvv += (dt * c.stiffness_at(end)) * outer;
             }
             let bound = p.bound;
             if bound > 0.0 {
@@ -452,42 +449,31 @@ impl Local<'_> {
                 phi += bound * rho;
                 // Hessian of μF_n ρ(P (v + S ω)), S = −r [e]×: Jᵀ Q J with
                 // Q = a (I − s sᵀ/ρ²), a = μF_n/ρ; since s ⊥ e, P s = s and P S = S, the
-                // blocks reduce to a P − c s sᵀ, a S − c s tᵀ and a r² P − c t tᵀ
-                // (c = a/ρ², `along_slip`; t = Sᵀ s = r e × s, `turn`).
+                // blocks reduce to vv = a P − c s sᵀ, ωv = a Sᵀ − c t sᵀ and
+                // ωω = a r² P − c t tᵀ (c = a/ρ², `along_slip`; t = Sᵀ s = r e × s, `turn`).
                 let a = bound / rho;
                 let along_slip = a / (rho * rho);
                 let turn = r * e.cross(&slip);
                 gv += a * slip;
                 gw += a * turn;
-                let projector = Matrix3::identity() - e * e.transpose();
-                let spin = -r * e.cross_matrix();
-                hess.fixed_view_mut::<3, 3>(0, 0)
-                    .add_assign(&(a * projector - along_slip * slip * slip.transpose()));
-                let mixed = a * spin - along_slip * slip * turn.transpose();
-                hess.fixed_view_mut::<3, 3>(0, 3).add_assign(&mixed);
-                hess.fixed_view_mut::<3, 3>(3, 0)
-                    .add_assign(&mixed.transpose());
-                hess.fixed_view_mut::<3, 3>(3, 3)
-                    .add_assign(&(a * r * r * projector - along_slip * turn * turn.transpose()));
+                let projector = Matrix3::identity() - outer;
+                hvv += a * projector - along_slip * slip * slip.transpose();
+                hwv += (a * r) * e.cross_matrix() - along_slip * turn * slip.transpose();
+                hww += (a * r * r) * projector - along_slip * turn * turn.transpose();
             }
         }
+        let mut hess = Matrix6::zeros();
+        hess.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(Matrix3::identity() + hvv));
+        hess.fixed_view_mut::<3, 3>(3, 0).copy_from(&hwv);
+        hess.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&hwv.transpose());
+        hess.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(Matrix3::from_diagonal_element(r * r) + hww));
         let mut grad = Vector6::zeros();
         grad.fixed_rows_mut::<3>(0).copy_from(&gv);
         grad.fixed_rows_mut::<3>(3).copy_from(&gw);
         (phi, grad, hess)
-    }
-}
-
-trait AddAssign<T> {
-    fn add_assign(&mut self, other: &T);
-}
-
-impl<S> AddAssign<Matrix3<f64>> for nalgebra::Matrix<f64, nalgebra::U3, nalgebra::U3, S>
-where
-    S: nalgebra::StorageMut<f64, nalgebra::U3, nalgebra::U3>,
-{
-    fn add_assign(&mut self, other: &Matrix3<f64>) {
-        *self += other;
     }
 }
 
