@@ -571,42 +571,29 @@ fn newton(local: &Local, start: Motion, tolerance: f64) -> (Motion, [f64; 2]) {
 /// triangle of H read); None if H is not positive definite. Written out for 6×6: the local
 /// Newton's solve, where nalgebra's generic factorization cost ~18 % of a run.
 fn cholesky_solve(h: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
+    // s − Σ_k x_k y_k, the terms subtracted one by one
+    let reduce = |s: f64, x: &[f64], y: &[f64]| x.iter().zip(y).fold(s, |s, (a, b)| s - a * b);
     let mut l = [[0.0_f64; 6]; 6];
     let mut inverse_diagonal = [0.0_f64; 6];
     for j in 0..6 {
-        let mut d = h[(j, j)];
-        for k in 0..j {
-            d -= l[j][k] * l[j][k];
-        }
-        if !(d > 0.0) {
+        let d = reduce(h[(j, j)], &l[j][..j], &l[j][..j]);
+        if d.is_nan() || d <= 0.0 {
             return None;
         }
         inverse_diagonal[j] = 1.0 / d.sqrt();
         for i in j + 1..6 {
-            let mut s = h[(i, j)];
-            for k in 0..j {
-                s -= l[i][k] * l[j][k];
-            }
-            l[i][j] = s * inverse_diagonal[j];
+            l[i][j] = reduce(h[(i, j)], &l[i][..j], &l[j][..j]) * inverse_diagonal[j];
         }
     }
     let mut y = [0.0_f64; 6];
     for i in 0..6 {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i][k] * y[k];
-        }
-        y[i] = s * inverse_diagonal[i];
+        y[i] = reduce(b[i], &l[i][..i], &y[..i]) * inverse_diagonal[i];
     }
-    let mut x = Vector6::zeros();
+    let mut x = [0.0_f64; 6];
     for i in (0..6).rev() {
-        let mut s = y[i];
-        for k in i + 1..6 {
-            s -= l[k][i] * x[k];
-        }
-        x[i] = s * inverse_diagonal[i];
+        x[i] = (i + 1..6).fold(y[i], |s, k| s - l[k][i] * x[k]) * inverse_diagonal[i];
     }
-    Some(x)
+    Some(Vector6::from(x))
 }
 
 #[cfg(test)]
