@@ -96,27 +96,47 @@ fn score(point: &Point, penalty: f64) -> f64 {
     }
 }
 
-struct Objective<'a, F: FnMut(f64) -> Vec<Option<f64>>> {
+struct Objective<'a, F: FnMut(&[f64]) -> Vec<Vec<Option<f64>>>> {
     evaluate: RefCell<F>,
     points: &'a RefCell<Vec<Point>>,
     penalty: f64,
     log: bool,
 }
 
-impl<F: FnMut(f64) -> Vec<Option<f64>>> Objective<'_, F> {
+impl<F: FnMut(&[f64]) -> Vec<Vec<Option<f64>>>> Objective<'_, F> {
     fn at(&self, x: f64) -> f64 {
-        if let Some(p) = self.points.borrow().iter().find(|p| p.x == x) {
-            return score(p, self.penalty);
+        self.all(&[x])[0]
+    }
+
+    /// Scores of the points xs: those not yet evaluated are evaluated as one batch, and kept
+    /// in the order of xs.
+    fn all(&self, xs: &[f64]) -> Vec<f64> {
+        let mut fresh: Vec<f64> = Vec::new();
+        for &x in xs {
+            let known = self.points.borrow().iter().any(|p| p.x == x);
+            if !known && !fresh.contains(&x) {
+                fresh.push(x);
+            }
         }
-        let values = (self.evaluate.borrow_mut())(x);
-        let point = Point { x, values };
-        let s = score(&point, self.penalty);
-        self.points.borrow_mut().push(point);
-        s
+        if !fresh.is_empty() {
+            let values = (self.evaluate.borrow_mut())(&fresh);
+            let new = fresh
+                .iter()
+                .zip(values)
+                .map(|(&x, values)| Point { x, values });
+            self.points.borrow_mut().extend(new);
+        }
+        let points = self.points.borrow();
+        xs.iter()
+            .map(|&x| {
+                let p = points.iter().find(|p| p.x == x).expect("evaluated above");
+                score(p, self.penalty)
+            })
+            .collect()
     }
 }
 
-impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for Objective<'_, F> {
+impl<F: FnMut(&[f64]) -> Vec<Vec<Option<f64>>>> CostFunction for Objective<'_, F> {
     type Param = f64;
     type Output = f64;
     fn cost(&self, u: &f64) -> Result<f64, argmin::core::Error> {
@@ -124,12 +144,14 @@ impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for Objective<'_, F> {
     }
 }
 
-/// Minimizes `evaluate` (x ↦ per-replicate values) over [lower, upper], on a log scale if
-/// `settings.log`. `penalty` scores points where a replicate has no value.
+/// Minimizes `evaluate` (a batch of x ↦ per-point, per-replicate values) over
+/// [lower, upper], on a log scale if `settings.log`. The scan's points are one batch (a
+/// caller may run them in parallel), Brent's one point each. `penalty` scores points where a
+/// replicate has no value.
 pub fn minimize_1d(
     settings: &Settings,
     penalty: f64,
-    evaluate: impl FnMut(f64) -> Vec<Option<f64>>,
+    evaluate: impl FnMut(&[f64]) -> Vec<Vec<Option<f64>>>,
 ) -> Optimum {
     let points = RefCell::new(Vec::new());
     let objective = Objective {
@@ -145,7 +167,7 @@ pub fn minimize_1d(
     let grid: Vec<f64> = (0..n)
         .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
         .collect();
-    let scores: Vec<f64> = grid.iter().map(|&u| objective.at(from_u(u))).collect();
+    let scores = objective.all(&grid.iter().map(|&u| from_u(u)).collect::<Vec<_>>());
     let best = (0..n)
         .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
         .unwrap();
@@ -164,12 +186,19 @@ pub fn minimize_1d(
     summarize(points, settings.band, penalty, settings.log)
 }
 
-impl<F: FnMut(f64) -> Vec<Option<f64>>> CostFunction for &Objective<'_, F> {
+impl<F: FnMut(&[f64]) -> Vec<Vec<Option<f64>>>> CostFunction for &Objective<'_, F> {
     type Param = f64;
     type Output = f64;
     fn cost(&self, ln_x: &f64) -> Result<f64, argmin::core::Error> {
         (*self).cost(ln_x)
     }
+}
+
+/// A batch evaluation from a one-point evaluation (the batch's points one after another).
+pub fn pointwise(
+    mut evaluate: impl FnMut(f64) -> Vec<Option<f64>>,
+) -> impl FnMut(&[f64]) -> Vec<Vec<Option<f64>>> {
+    move |xs| xs.iter().map(|&x| evaluate(x)).collect()
 }
 
 fn summarize(points: Vec<Point>, band: f64, penalty: f64, log: bool) -> Optimum {
@@ -281,10 +310,15 @@ mod tests {
             band: 0.02,
             log: true,
         };
-        let opt = minimize_1d(&settings, 1e9, |x| {
-            let f = 1.0 + (x.ln() - 30f64.ln()).powi(2);
-            vec![Some(f), Some(f)]
+        let mut batches = Vec::new();
+        let opt = minimize_1d(&settings, 1e9, |xs: &[f64]| {
+            batches.push(xs.len());
+            let f = |x: f64| 1.0 + (x.ln() - 30f64.ln()).powi(2);
+            xs.iter().map(|&x| vec![Some(f(x)), Some(f(x))]).collect()
         });
+        // the scan is one batch (run in parallel by studies), Brent's points one each
+        assert_eq!(batches[0], 7);
+        assert!(batches[1..].iter().all(|&n| n == 1), "{batches:?}");
         assert!((opt.x / 30.0 - 1.0).abs() < 1e-4, "{}", opt.x);
         let w = 0.02f64.sqrt();
         // interpolation between evaluated points: the band is approximate but close
@@ -314,11 +348,15 @@ mod tests {
             band: 0.02,
             log: true,
         };
-        let opt = minimize_1d(&settings, 1e9, |x| {
-            let a = 1.0 + (x.ln() - 20f64.ln()).powi(2);
-            let b = 1.0 + (x.ln() - 40f64.ln()).powi(2);
-            vec![Some(a), Some(b)]
-        });
+        let opt = minimize_1d(
+            &settings,
+            1e9,
+            pointwise(|x| {
+                let a = 1.0 + (x.ln() - 20f64.ln()).powi(2);
+                let b = 1.0 + (x.ln() - 40f64.ln()).powi(2);
+                vec![Some(a), Some(b)]
+            }),
+        );
         assert!((opt.x - 800f64.sqrt()).abs() < 1e-2 * opt.x, "{}", opt.x);
         assert!((opt.uncertainty - 10.0).abs() < 0.5, "{}", opt.uncertainty);
     }

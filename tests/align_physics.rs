@@ -9,7 +9,7 @@ use magopt::models::align::ensemble::MasterCurve;
 use magopt::models::align::study::AlignModel;
 use magopt::models::align::{run_ensemble, AlignParams, ModelKind};
 use magopt::neighbor::NeighborList;
-use magopt::optimize::{minimize_1d, Settings};
+use magopt::optimize::{minimize_1d, pointwise, Settings};
 use magopt::units::si_per_unit;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -105,9 +105,13 @@ fn ensemble_depends_on_the_field_only_through_h() {
             band: 0.02,
             log: true,
         };
-        let optimum = minimize_1d(&settings, 1e100, |field| {
-            vec![run_ensemble(&AlignParams::paper_defaults(m.clone(), field)).alignment_time_s]
-        });
+        let optimum = minimize_1d(
+            &settings,
+            1e100,
+            pointwise(|field| {
+                vec![run_ensemble(&AlignParams::paper_defaults(m.clone(), field)).alignment_time_s]
+            }),
+        );
         optimum.x / hk
     };
     let (sr, nd) = (optimum_over_hk("srfe12o19"), optimum_over_hk("nd2fe14b"));

@@ -307,7 +307,15 @@ pub(crate) fn optimize_at<M: StudyModel>(
             band: spec.band,
             log: spec.log,
         };
-        Some(minimize_1d(&settings, PENALTY, |x| guarded(&[x])))
+        // the scan's points run as one batch: every (field, replicate) run in parallel
+        let guarded_batch = |xs: &[f64]| {
+            let points: Vec<Vec<f64>> = xs.iter().map(|&x| vec![x]).collect();
+            evaluator.evaluate_batch(&points).unwrap_or_else(|e| {
+                failure.borrow_mut().get_or_insert(e);
+                vec![vec![None; study.replicates]; xs.len()]
+            })
+        };
+        Some(minimize_1d(&settings, PENALTY, guarded_batch))
     } else {
         nelder_mead(spec, &guarded);
         None
