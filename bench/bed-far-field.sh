@@ -26,15 +26,22 @@ run() {
   shift 3
   local base="$out/$label-N$n-s$s-${speed//\//_}"
   [ -s "$base.json" ] && { echo "$base"; return; }
+  # exit 3 is a failed run whose JSON says why; anything else leaves no record
+  local code=0
   /usr/bin/time -f "%U %S" -o "$base.cpu" "$bin" bed --particles "$n" --seed "$s" \
-    --piston-speed "$speed" "$@" --json > "$base.json.tmp"
+    --piston-speed "$speed" "$@" --json > "$base.json.tmp" || code=$?
+  if [ "$code" -ne 0 ] && [ "$code" -ne 3 ]; then
+    rm -f "$base.json.tmp" "$base.cpu"
+    echo "run $label N=$n seed $s: magopt exited $code" >&2
+    return 1
+  fi
   mv "$base.json.tmp" "$base.json"
   echo "$base"
 }
 
 field() { jq -r ".$2" "$1.json"; }
 # CPU seconds of a run (– for a run copied from elsewhere without them)
-cpu() { [ -s "$1.cpu" ] && awk '{printf "%.0f", $1 + $2}' "$1.cpu" || echo –; }
+cpu() { [ -s "$1.cpu" ] && tail -1 "$1.cpu" | awk '{printf "%.0f", $1 + $2}' || echo –; }
 
 {
   echo
@@ -44,13 +51,16 @@ cpu() { [ -s "$1.cpu" ] && awk '{printf "%.0f", $1 + $2}' "$1.cpu" || echo –; 
   echo "|---|---|---|---|---|---|---|---|"
   for n in $sizes; do
     for s in $seeds; do
-      exact=$(run exact "$n" "$s" --neighbors exact)
+      exact=$(run exact "$n" "$s" --neighbors exact) || continue
       f0=$(field "$exact" max_piston_force_N)
       w0=$(field "$exact" cycle_work_J)
       printf "| %s | %s | exact | %.3f | | %.4f | | %s |\n" "$n" "$s" "$f0" "$w0" "$(cpu "$exact")"
       while IFS='|' read -r label flags; do
         # shellcheck disable=SC2086
-        r=$(run "$label" "$n" "$s" $flags)
+        r=$(run "$label" "$n" "$s" $flags) || {
+          echo "| $n | $s | $label | no record | | | | |"
+          continue
+        }
         f=$(field "$r" max_piston_force_N)
         w=$(field "$r" cycle_work_J)
         awk -v n="$n" -v s="$s" -v l="$label" -v f="$f" -v w="$w" -v f0="$f0" -v w0="$w0" \
