@@ -105,12 +105,10 @@ struct Node {
     range: (usize, usize),
 }
 
-/// The quadtree and its buffers. Its sums fill the `force` and `normal` fields of [`PairSums`]
-/// (Σ_j μ_j d/r⁵ and Σ_j μ_j sin θ_j/r³ over r_ij ≥ r_s, without the μ_i and 3μ0/4π factors);
-/// the closest-approach fields stay 0: the near list holds the close pairs.
-///
 /// The quadtree and its buffers (reused between evaluations: no allocation once warm, except
-/// the per-evaluation list of leaf slices).
+/// the per-evaluation list of leaf slices). Its sums fill the `force` and `normal` fields of
+/// [`PairSums`] (Σ_j μ_j d/r⁵ and Σ_j μ_j sin θ_j/r³ over r_ij ≥ r_s, without the μ_i and
+/// 3μ0/4π factors); the closest-approach fields stay 0: the near list holds the close pairs.
 #[derive(Debug, Clone, Default)]
 pub(super) struct FarField {
     /// Opening angle θ: a node is used whole when extent < θ · gap.

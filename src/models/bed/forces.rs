@@ -407,7 +407,7 @@ impl ForceField {
     }
 
     /// Ordered pairs (i, j) closer than the cut-off at these positions (a benchmark count):
-    /// N(N − 1) for exact sums, every entry of a list rebuilt each step without skin, else one
+    /// N(N − 1) for exact sums and the tree (no cut-off), every entry of a list rebuilt each step without skin, else one
     /// pass over the list (sample it at list builds, not every step).
     pub fn pairs_within_cutoff(&self, position: &[Vector2<f64>]) -> usize {
         let n = position.len();
