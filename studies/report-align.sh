@@ -52,13 +52,34 @@ argmin() {
   done
   echo "$at"
 }
+# vertex PREFIX: the optimum field (kOe) refined between grid points: the vertex of the parabola
+# in ln H through the grid minimum of the mean τ_0.95 and its two neighbours ("–" where the
+# grid is incomplete or its minimum lies at an end of the grid)
+vertex() {
+  local h
+  for h in $fields; do echo "$h $(mean "$1-h$h")"; done | awk '
+    { x[NR] = log($1); t[NR] = $2; if ($2 < 0) bad = 1 }
+    END { if (bad) { print "–"; exit }
+      i = 1; for (k = 2; k <= NR; k++) if (t[k] < t[i]) i = k
+      if (i == 1 || i == NR || t[i] > 1e98) { print "–"; exit }
+      a = x[i] - x[i-1]; b = x[i] - x[i+1]; p = t[i] - t[i+1]; q = t[i] - t[i-1]
+      printf "%.1f", exp(x[i] - 0.5 * (a * a * p - b * b * q) / (a * p - b * q)) }'
+}
 # wall PATTERN: total wall time (min) of the runs matching the glob
 wall() { cat "$dir"/$1 2> /dev/null | jq -rs 'if length == 0 then "–" else map(.wall_time_s) | add
   / 60 * 10 | round / 10 end'; }
 # runs PATTERN…: how many runs match the globs
 runs() { local f k=0; for f in "$@"; do compgen -G "$dir/$f" > /dev/null && k=$((k + $(compgen -G "$dir/$f" | wc -l))); done; echo $k; }
-cmd() { cmd_of align "friction field_kOe pressure_atm pressure_mode friction_scheme moment_branch" "$1-s1"; }
+cmd() { cmd_of align "friction field_kOe pressure_atm pressure_mode friction_scheme moment_branch settling_scheme" "$1-s1"; }
 n=$(m default-mu0-h40-s1 parameters.particles %.0f)
+# machine: the cores and the parallel runs of the recorded studies (timing.tsv)
+machine() {
+  [ -s "$dir/timing.tsv" ] || { echo "2 cores shared with other jobs"; return; }
+  awk -F'\t' 'NR == 1 { printf "%d cores, %d runs at a time (one thread each)", $4, $5 }' "$dir/timing.tsv"
+}
+# clock STUDY: the wall-clock time (min) the named studies of timing.tsv took, summed
+clock() { awk -F'\t' -v s=" $* " 'index(s, " " $1 " ") { t += $3; k = 1 }
+  END { if (k) printf "%.1f", t / 60; else printf "–" }' "$dir/timing.tsv" 2> /dev/null || echo –; }
 cat <<HEAD
 # align: Erokhin & Berkov 2020 claim by claim
 
@@ -71,7 +92,7 @@ exposed layer), **source** (the source's explicit Eq. (8) and its top-layer load
 \`--friction-scheme source-explicit --pressure-mode source-layer\`), **limit** (the Coulomb
 limit v_ε = 0, \`--friction-scheme coulomb-limit\`). A run that has not reached A = 0.95 within
 $limit_time of simulated time counts as "not reached"; a case not run (a partial run,
-\`CASES=…\`) shows –. Machine: 2 cores shared with other jobs.
+\`CASES=…\`) shows –. Machine: $(machine).
 $( [[ $dir == *-quick ]] && printf '\n**Quick mode** (CI size: N = %s, one replicate, coarse grids). The source used N = 1000 and\nfour replicates (§3, Fig. 6 caption); these numbers are not its full-size comparison.\n' "$n")
 
 ## Claims (§3, Figs. 5–7)
@@ -94,24 +115,47 @@ optimum_verdict() {
 }
 for mu in $frictions; do
   at=$(argmin default-mu$mu)
-  echo "| optimum field at μ = $mu (§3, Fig. 6a; grid $fields kOe) | ≈ 40 kOe | $at kOe | $(argmin source-mu$mu) kOe | – | default-mu$mu-h* | $(optimum_verdict "$at" default-mu$mu) |"
+  echo "| optimum field at μ = $mu (§3, Fig. 6a; grid $fields kOe; vertex of a parabola in ln H) | ≈ 40 kOe | $at kOe ($(vertex default-mu$mu)) | $(argmin source-mu$mu) kOe ($(vertex source-mu$mu)) | – | default-mu$mu-h* | $(optimum_verdict "$at" default-mu$mu) |"
 done
-echo "| μ = 0 optimum of lone particles (\`--model ensemble\`, milliseconds) | – | $(argmin ensemble) kOe | | | ensemble-h* | with μ = 0 the DEM is this model on its own particles |"
+echo "| μ = 0 optimum of lone particles (\`--model ensemble\`, milliseconds) | – | $(argmin ensemble) kOe ($(vertex ensemble)) | | | ensemble-h* | with μ = 0 the DEM is this model on its own particles |"
 echo "| τ(100 kOe) > τ(40 kOe) (§3) | larger | $(tau default-mu0.2-h100) vs $(tau default-mu0.2-h40) s (μ = 0.2) | $(tau source-mu0.2-h100) vs $(tau source-mu0.2-h40) s | – | *-mu0.2-h100 | compare per row |"
 p0=$(mean pmsource-layer-p0); p10=$(mean pmsource-layer-p10)
 echo "| P 0 → 10 atm at μ = 0.05, 40 kOe (§3, Fig. 7b) | ≈ +25 % | $(pct "$(mean pmexposed-layer-p10)" "$(mean pmexposed-layer-p0)") (exposed layer), $(pct "$(mean pmpunch-p10)" "$(mean pmpunch-p0)") (punch), $(pct "$p10" "$p0") (source layer) | $(pct "$(mean source-p10)" "$(mean source-p0)") | $(pct "$(mean limit-p10)" "$(mean limit-p0)") | *-p10 | source method $(within "$(mean source-p10)" "$(mean source-p0)" 10 25) (±10 points); the friction scheme moves the pressure effect more than the load rule (compare the rows of the P table) |"
+# spread PREFIX…: the range of the vertices (kOe) of the prefixes' τ(H) curves
+spread() {
+  local p v all=
+  for p in "$@"; do v=$(vertex "$p"); [ "$v" = – ] && { echo –; return; }; all="$all $v"; done
+  tr ' ' '\n' <<< "$all" | awk 'NF { if (n++ == 0 || $1 < lo) lo = $1; if ($1 > hi) hi = $1 }
+    END { printf "%.1f–%.1f kOe", lo, hi }'
+}
+echo "| the minimum's position is nearly independent of μ and P (§3, Figs. 6a and 7a) | nearly independent | vertices $(spread $(printf 'default-mu%s ' $frictions)) over μ, $(spread $(printf 'fig7a-default-p%s ' $pressures)) over P | $(spread $(printf 'source-mu%s ' $frictions)) over μ, $(spread $(printf 'fig7a-source-p%s ' $pressures)) over P | – | default-mu*-h*, fig7a-* | compare the ranges with the replicate spread of τ near the minimum (tables below); a flat valley moves its vertex with small changes of τ |"
 cat <<'MID'
 
 ## τ_0.95 (s) versus H at 0.5 atm (Fig. 6a)
 
 MID
-printf '| method, μ |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum |"
-printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|"
-printf '| ensemble (μ = 0, no contacts) |'; for h in $fields; do printf ' %s |' "$(tau ensemble-h$h)"; done; echo " $(argmin ensemble) |"
+printf '| method, μ |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex |"
+printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|"
+printf '| ensemble (μ = 0, no contacts) |'; for h in $fields; do printf ' %s |' "$(tau ensemble-h$h)"; done; echo " $(argmin ensemble) | $(vertex ensemble) |"
 for k in default source; do
   for mu in $frictions; do
     printf '| %s, %s |' "$k" "$mu"; for h in $fields; do printf ' %s |' "$(tau $k-mu$mu-h$h)"; done
-    echo " $(argmin $k-mu$mu) |"
+    echo " $(argmin $k-mu$mu) | $(vertex $k-mu$mu) |"
+  done
+done
+cat <<'MID'
+
+## τ_0.95 (s) versus H for each P at μ = 0.05 (Fig. 7a)
+
+The 40 kOe column is Fig. 7b's runs (below).
+
+MID
+printf '| method, P (atm) |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex |"
+printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|"
+for k in default source; do
+  for p in $pressures; do
+    printf '| %s, %s |' "$k" "$p"; for h in $fields; do printf ' %s |' "$(tau fig7a-$k-p$p-h$h)"; done
+    echo " $(argmin fig7a-$k-p$p) | $(vertex fig7a-$k-p$p) |"
   done
 done
 cat <<'MID'
@@ -145,24 +189,30 @@ Each row changes one ingredient from magopt's default (docs/align.md, "The ≈ 4
 question"); the optimum is the grid point of the smallest τ_0.95.
 
 MID
-printf '| candidate |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | shift |"
-printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|"
-base=$(argmin default-mu0.2)
-printf '| none (default) |'; for h in $fields; do printf ' %s |' "$(tau default-mu0.2-h$h)"; done; echo " $base | – |"
-for c in source-layer punch source-explicit coulomb-limit metastable; do
-  at=$(argmin cand-$c)
+printf '| candidate |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex | shift of the vertex |"
+printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|---|"
+base=$(vertex default-mu0.2)
+printf '| none (default) |'; for h in $fields; do printf ' %s |' "$(tau default-mu0.2-h$h)"; done
+echo " $(argmin default-mu0.2) | $base | – |"
+for c in source-layer punch source-explicit coulomb-limit metastable source-dropped; do
+  at=$(vertex cand-$c)
   printf '| %s |' "$c"; for h in $fields; do printf ' %s |' "$(tau cand-$c-h$h)"; done
-  echo " $at | $(awk -v a="$at" -v b="$base" 'BEGIN { if (a == "–" || b == "–") printf "–";
-    else printf "%+g kOe", a - b }') |"
+  echo " $(argmin cand-$c) | $at | $(awk -v a="$at" -v b="$base" 'BEGIN { if (a == "–" || b == "–") printf "–";
+    else printf "%+.1f kOe", a - b }') |"
 done
 cat <<MID
 
-## Wall time of each study (alignment stages summed over its runs, min; 2 shared cores)
+## Wall time of each study
 
-| study | runs | wall (min) |
-|---|---|---|
-| τ vs H, μ (Fig. 6a), default and source | $(runs 'default-mu*-s*.json' 'source-mu*-s*.json') | $(wall 'default-mu*-s*.json') + $(wall 'source-mu*-s*.json') |
-| τ vs μ, Coulomb limit (Fig. 6b) | $(runs 'limit-mu*-s*.json') | $(wall 'limit-mu*-s*.json') |
-| τ vs P (Fig. 7b), all modes | $(runs 'pm*-s*.json' 'source-p*-s*.json' 'limit-p*-s*.json') | $(wall 'pm*-s*.json') + $(wall 'source-p*-s*.json') + $(wall 'limit-p*-s*.json') |
-| candidates (≈ 40 kOe question) | $(runs 'cand-*-s*.json') | $(wall 'cand-*-s*.json') |
+"alignment stages": the runs' alignment stages summed (min of one core); "wall clock": the
+study from start to end as \`reproduce-align.sh\` ran it (min; $(machine); packings
+included; – where the study ran before timing was recorded or in pieces).
+
+| study | runs | alignment stages (min) | wall clock (min) |
+|---|---|---|---|
+| τ vs H, μ (Fig. 6a), default and source | $(runs 'default-mu*-s*.json' 'source-mu*-s*.json') | $(wall 'default-mu*-s*.json') + $(wall 'source-mu*-s*.json') | $(clock fig6a) |
+| τ vs μ, Coulomb limit (Fig. 6b) | $(runs 'limit-mu*-s*.json') | $(wall 'limit-mu*-s*.json') | $(clock fig6b-limit) |
+| τ vs P (Fig. 7b), all modes | $(runs 'pm*-s*.json' 'source-p*-s*.json' 'limit-p*-s*.json') | $(wall 'pm*-s*.json') + $(wall 'source-p*-s*.json') + $(wall 'limit-p*-s*.json') | $(clock fig7b fig7b-limit) |
+| τ vs H, P (Fig. 7a; 40 kOe from Fig. 7b) | $(runs 'fig7a-*-h[!4]*-s*.json') | $(wall 'fig7a-default-*-h[!4]*-s*.json') + $(wall 'fig7a-source-*-h[!4]*-s*.json') | $(clock fig7a) |
+| candidates (≈ 40 kOe question) | $(runs 'cand-*-s*.json') | $(wall 'cand-*-s*.json') | $(clock candidates) |
 MID

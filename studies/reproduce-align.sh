@@ -10,6 +10,8 @@
 # already recorded are kept (delete the directory to start over), so an interrupted run resumes.
 # CASES=REGEX runs only the cases whose name matches (a partial run: the report shows the
 # others as –), e.g. CASES='^(default|source)-mu.*-h40$' for Fig. 6b at full size.
+# JOBS=K runs K cases at a time, one thread each (default: the number of cores); each study's
+# wall-clock time is appended to <runs>/timing.tsv (study, runs, seconds, cores, JOBS).
 set -euo pipefail
 mode=${1:-full}
 bin=${MAGOPT:-target/release/magopt}
@@ -26,16 +28,34 @@ out=results/reproduction/align-runs$suffix
 mkdir -p "$out"
 printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\n' "$fields" \
   "$frictions" "$pressures" "$seeds" "$limit_time" > "$out/grid.env"
-# run CASE ARG…: one run per seed, recorded as CASE-s<seed>.json
+jobs=${JOBS:-$(nproc)}
+queue=$(mktemp); trap 'rm -f "$queue"' EXIT
+# run CASE ARG…: queue one run per seed, recorded as CASE-s<seed>.json (see `study`)
 run() {
   local name=$1 s; shift
   [[ $name =~ ${CASES:-.} ]] || return 0
   for s in $seeds; do
-    [ -s "$out/$name-s$s.json" ] && continue
-    nice -n 10 "$bin" align --json --particles $n --seed $s --max-time $limit_time "$@" \
-      > "$out/$name-s$s.json.part"
-    mv "$out/$name-s$s.json.part" "$out/$name-s$s.json"
+    [ -s "$out/$name-s$s.json" ] || echo "$name $s $*" >> "$queue"
   done
+}
+# one CASE SEED ARG…: a single run; a run that ends "not reached" (exit 3) is a result too
+one() {
+  local name=$1 s=$2 rc=0; shift 2
+  RAYON_NUM_THREADS=1 nice -n 10 "$bin" align --json --particles "$n" --seed "$s" \
+    --max-time "$limit_time" "$@" > "$out/$name-s$s.json.part" || rc=$?
+  if [ "$rc" -le 3 ] && [ -s "$out/$name-s$s.json.part" ]; then
+    mv "$out/$name-s$s.json.part" "$out/$name-s$s.json"
+  else echo "$name seed $s: exit $rc (kept as .part)" >&2; fi
+}
+export -f one; export bin n out limit_time
+# study NAME: run the queued runs, JOBS at a time, and record the study's wall-clock time
+study() {
+  local k t0; k=$(wc -l < "$queue"); [ "$k" -gt 0 ] || return 0
+  t0=$(date +%s.%N)
+  xargs -P "$jobs" -L 1 bash -c 'one "$@"' _ < "$queue"
+  awk -v s="$1" -v k="$k" -v t0="$t0" -v t1="$(date +%s.%N)" -v c="$(nproc)" -v j="$jobs" \
+    'BEGIN { printf "%s\t%d\t%.0f\t%d\t%d\n", s, k, t1 - t0, c, j }' >> "$out/timing.tsv"
+  : > "$queue"
 }
 # the three methods: magopt's default (implicit regularized friction, exposed-layer load), the
 # source's (its explicit Eq. (8), its top-layer load rule) and the Coulomb limit (v_ε = 0)
@@ -49,15 +69,7 @@ for h in $fields; do
     for k in default source; do run $k-mu$mu-h$h --field $h --friction $mu ${method[$k]}; done
   done
 done
-# §3, Fig. 6b: τ_0.95 versus μ at 40 kOe, also in the Coulomb limit
-for mu in $frictions; do run limit-mu$mu-h40 --field 40 --friction $mu ${method[limit]}; done
-# §3, Fig. 7b: τ_0.95 versus P at μ = 0.05, 40 kOe, in every pressure mode and method
-for p in $pressures; do
-  for pm in exposed-layer punch source-layer; do
-    run pm$pm-p$p --field 40 --friction 0.05 --pressure $p --pressure-mode $pm
-  done
-  for k in source limit; do run $k-p$p --field 40 --friction 0.05 --pressure $p ${method[$k]}; done
-done
+study fig6a
 # docs/align.md, "The ≈ 40 kOe question": each candidate difference alone, at μ = 0.2, over H
 declare -A candidate=([source-layer]="--pressure-mode source-layer" [punch]="--pressure-mode punch"
   [source-explicit]="--friction-scheme source-explicit" [coulomb-limit]="${method[limit]}"
@@ -65,4 +77,68 @@ declare -A candidate=([source-layer]="--pressure-mode source-layer" [punch]="--p
 for c in "${!candidate[@]}"; do
   for h in $fields; do run cand-$c-h$h --field $h --friction 0.2 ${candidate[$c]}; done
 done
+study candidates
+# the source's settling (overdamped drop) makes a packing about 40× slower than FIRE: one sweep
+# over the fields makes each seed's packing once (the study runner caches packings per seed)
+# where one `magopt align` per field would make it eight times; each run record becomes a case
+dropped() {
+  local h s missing=0 tmp
+  [[ cand-source-dropped =~ ${CASES:-.} ]] || return 0
+  for h in $fields; do for s in $seeds; do
+    [ -s "$out/cand-source-dropped-h$h-s$s.json" ] || missing=1
+  done; done
+  [ $missing = 1 ] || return 0
+  tmp=$(mktemp -d)
+  printf 'name = "cand-source-dropped"\nmodel = "align"\nreplicates = %s\nseed = %s\n' \
+    "$(wc -w <<< "$seeds")" "${seeds%% *}" > "$tmp/study.toml"
+  printf '[base]\nparticles = %s\nfriction = 0.2\nmax_time = "%s"\n' "$n" "$limit_time" \
+    >> "$tmp/study.toml"
+  printf 'settling_scheme = "source-dropped"\n[sweep]\nfield = [%s]\n' \
+    "$(printf '"%skOe", ' $fields | sed 's/, $//')" >> "$tmp/study.toml"
+  local t0; t0=$(date +%s.%N)
+  nice -n 10 "$bin" sweep "$tmp/study.toml" --out "$tmp/out" > /dev/null
+  for f in "$tmp"/out/runs/*.json; do
+    h=$(jq '.values[0] / (1e6 / (4 * 3.141592653589793)) | round' "$f")
+    s=$(jq .seed "$f")
+    jq --argjson h "$h" --argjson n "$n" '(.result.metrics | map({(.[0]): .[1]}) | add) + {
+      status: .result.status, reason: .result.reason, wall_time_s: .result.wall_time_s, seed,
+      magopt_version, code, parameters: {field_kOe: $h, friction: 0.2, particles: $n,
+      settling_scheme: "source-dropped"}}' "$f" > "$out/cand-source-dropped-h$h-s$s.json"
+  done
+  awk -v k="$(ls "$tmp"/out/runs | wc -l)" -v t0="$t0" -v t1="$(date +%s.%N)" -v c="$(nproc)" \
+    'BEGIN { printf "candidates\t%d\t%.0f\t%d\t%d\n", k, t1 - t0, c, c }' >> "$out/timing.tsv"
+  rm -rf "$tmp"
+}
+dropped
+# §3, Fig. 7b: τ_0.95 versus P at μ = 0.05, 40 kOe, in every pressure mode and method
+for p in $pressures; do
+  for pm in exposed-layer punch source-layer; do
+    run pm$pm-p$p --field 40 --friction 0.05 --pressure $p --pressure-mode $pm
+  done
+  run source-p$p --field 40 --friction 0.05 --pressure $p ${method[source]}
+done
+study fig7b
+# link RUN CASE: record RUN's result as CASE too (where RUN ran)
+link() { [ ! -s "$out/$1.json" ] || ln -sf "$1.json" "$out/$2.json"; }
+# §3, Fig. 7a: τ_0.95 versus H for each P at μ = 0.05, default and source method; its 40 kOe
+# points are Fig. 7b's runs (linked, not rerun)
+for p in $pressures; do
+  for h in $fields; do
+    if [ "$h" = 40 ]; then
+      for s in $seeds; do
+        link pmexposed-layer-p$p-s$s fig7a-default-p$p-h40-s$s
+        link source-p$p-s$s fig7a-source-p$p-h40-s$s
+      done
+      continue
+    fi
+    run fig7a-default-p$p-h$h --field $h --friction 0.05 --pressure $p
+    run fig7a-source-p$p-h$h --field $h --friction 0.05 --pressure $p ${method[source]}
+  done
+done
+study fig7a
+# the Coulomb limit last: where friction holds the particles it creeps to the time limit
+for mu in $frictions; do run limit-mu$mu-h40 --field 40 --friction $mu ${method[limit]}; done
+study fig6b-limit
+for p in $pressures; do run limit-p$p --field 40 --friction 0.05 --pressure $p ${method[limit]}; done
+study fig7b-limit
 bash studies/report-align.sh "$out" > "results/reproduction/align$suffix.md"

@@ -15,7 +15,9 @@ pub mod study;
 
 use serde::Serialize;
 
-pub use params::{AlignParams, FrictionScheme, MomentBranch, Numerics, PressureMode, RestMeasure};
+pub use params::{
+    AlignParams, FrictionScheme, MomentBranch, Numerics, PressureMode, RestMeasure, SettlingScheme,
+};
 
 /// Which implementation evaluates a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]

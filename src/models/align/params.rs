@@ -47,6 +47,17 @@ pub enum FrictionScheme {
     CoulombLimit,
 }
 
+/// How the packing stages 2–3 move the particles (spec align.md, "Stages"; issue 12 item 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum SettlingScheme {
+    /// FIRE minimization under an equal settling force on every particle (a numerical device).
+    Fire,
+    /// The source's (§2.1, §2.3, §3): overdamped motion γ v = F by Heun's method, the spheres
+    /// "dropped" by a force proportional to their mass (R³; its mean is the settling force).
+    SourceDropped,
+}
+
 /// Which statistic of the net forces the settling rest criterion compares with `rest_speed` ×
 /// the settling force (spec align.md, stage 3: "come to rest").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -79,6 +90,8 @@ pub struct Numerics {
     /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
     /// cells; the result is the same at any thread count). 4000.
     pub parallel_from: usize,
+    /// How stages 2–3 move the particles: FIRE (default) or the source's overdamped drop.
+    pub settling_scheme: SettlingScheme,
     /// Settling force per particle (stage 3), in units of E R_av². A numerical device: real
     /// gravity is ~1e-12 of the contact scale and would never settle the bed. 1e-3.
     pub settling_force: f64,
@@ -105,6 +118,7 @@ impl Default for Numerics {
             max_sweeps: 200,
             friction_scheme: FrictionScheme::Implicit,
             parallel_from: 4000,
+            settling_scheme: SettlingScheme::Fire,
             settling_force: 1e-3,
             rest_speed: 1e-2,
             rest_measure: RestMeasure::Rms,

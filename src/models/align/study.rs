@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use super::dem::{self, Packing};
 use super::{
     run_ensemble, AlignOutcome, AlignParams, FrictionScheme, ModelKind, MomentBranch, PressureMode,
-    Status,
+    SettlingScheme, Status,
 };
 use crate::materials::MaterialDb;
 use crate::study::model::{
@@ -134,6 +134,16 @@ static PARAMETERS: &[AlignParam] = &[
             ("implicit", FrictionScheme::Implicit),
             ("source-explicit", FrictionScheme::SourceExplicit),
             ("coulomb-limit", FrictionScheme::CoulombLimit)
+        ]
+    ),
+    choice_param!(
+        "settling_scheme",
+        "How the packing is made: fire (FIRE minimization under an equal settling force) or \
+         source-dropped (the source's overdamped Heun steps, spheres dropped by a force ∝ R³)",
+        params.numerics.settling_scheme,
+        [
+            ("fire", SettlingScheme::Fire),
+            ("source-dropped", SettlingScheme::SourceDropped)
         ]
     ),
     Param {

@@ -12,6 +12,11 @@
 //!   force (an overdamped particle would move slower than that fraction of its free-fall
 //!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
 //!   the largest is below `overlap_tolerance`.
+//!
+//! `settling_scheme = source-dropped` replaces FIRE by the source's own dynamics (§2.1, §2.3,
+//! §3): the spheres move overdamped (γ v = F, Heun's method) in all three stages and are
+//! "dropped" by a force proportional to their mass (R³, scaled so that its mean is the
+//! settling force), the same stop rules ending each stage.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::RngExt;
@@ -19,7 +24,7 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use super::contacts::{ContactLaw, Container};
-use crate::models::align::params::{PackingParams, RestMeasure};
+use crate::models::align::params::{PackingParams, RestMeasure, SettlingScheme};
 use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
@@ -84,12 +89,13 @@ impl Packing {
             skin: 0.0,
         };
         let n = &params.numerics;
+        let drop = Drop::new(n.settling_scheme, &packing.radius);
         let mut work = [ContactWork::default(); 3];
-        (packing.steps[0], work[0]) = packing.flow(&law, Repulsion::Harmonic, 0.0, |s| {
+        (packing.steps[0], work[0]) = packing.flow(&law, Repulsion::Harmonic, &drop, 0.0, |s| {
             s.max_overlap < n.overlap_tolerance
         })?;
         let f = n.settling_force;
-        (packing.steps[1], work[1]) = packing.flow(&law, Repulsion::Hertz, f, |s| {
+        (packing.steps[1], work[1]) = packing.flow(&law, Repulsion::Hertz, &drop, f, |s| {
             let speed = match n.rest_measure {
                 RestMeasure::Max => s.max_force,
                 RestMeasure::Rms => s.rms_force,
@@ -97,7 +103,7 @@ impl Packing {
             s.steps > 10 && speed < n.rest_speed * f
         })?;
         packing.container.top = None;
-        (packing.steps[2], work[2]) = packing.flow(&law, Repulsion::Hertz, 0.0, |s| {
+        (packing.steps[2], work[2]) = packing.flow(&law, Repulsion::Hertz, &drop, 0.0, |s| {
             s.max_overlap < n.overlap_tolerance
         })?;
         Ok((packing, work))
@@ -108,40 +114,42 @@ impl Packing {
         packing_fraction(&self.radius, &self.position, &self.container)
     }
 
-    /// Minimizes the stage's potential energy with FIRE until `done`; returns the step count
-    /// and what the contact sums cost.
+    /// Moves the particles (FIRE, or overdamped Heun steps for the source's scheme) until
+    /// `done`; returns the step count and what the contact sums cost.
     fn flow(
         &mut self,
         law: &ContactLaw,
         repulsion: Repulsion,
+        drop: &Drop,
         down_force: f64,
         done: impl Fn(&FlowStatus) -> bool,
     ) -> Result<(usize, ContactWork), String> {
         let n = self.radius.len();
         let mut list = NeighborList::new(SKIN);
         let mut force = vec![(Vector3::zeros(), 0.0, 0.0, 0); n];
-        let mut fire = Fire::new(n);
+        let mut stepper = match drop.scheme {
+            SettlingScheme::Fire => Stepper::Fire(Fire::new(n)),
+            SettlingScheme::SourceDropped => Stepper::Heun {
+                trial: vec![Vector3::zeros(); n],
+                trial_force: force.clone(),
+            },
+        };
         let mut work = ContactWork::default();
+        let loads = Loads {
+            law,
+            repulsion,
+            drop,
+            down_force,
+            radius: &self.radius,
+        };
         for step in 0..MAX_STEPS {
-            list.update(&self.position, &self.radius);
-            // one parallel gather per step; no contact list is stored
-            let (position, radius, container) = (&self.position, &self.radius, &self.container);
-            force.par_iter_mut().enumerate().for_each(|(i, slot)| {
-                *slot = (Vector3::new(0.0, 0.0, -down_force), 0.0, 0.0, 0);
-                law.contacts_of(i, position, radius, &list, container, |c| {
-                    let (f, k) = repulsion.force_and_stiffness(&c);
-                    slot.0 -= f * c.normal;
-                    slot.1 += k;
-                    slot.2 = f64::max(slot.2, c.overlap);
-                    slot.3 += u32::from(c.particle().is_some());
-                });
-            });
-            work.add(list.len(), force.par_iter().map(|f| f.3 as usize).sum());
-            // one pass for the three maxima (exact at any thread count)
-            let [max_force, max_stiffness, max_overlap] = force
-                .par_iter()
-                .map(|f| [f.0.norm(), f.1, f.2])
-                .reduce(|| [0.0; 3], |a, b| [0, 1, 2].map(|k| f64::max(a[k], b[k])));
+            let [max_force, max_stiffness, max_overlap] = loads.evaluate(
+                &self.position,
+                &self.container,
+                &mut list,
+                &mut force,
+                &mut work,
+            );
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
@@ -156,12 +164,110 @@ impl Packing {
             if done(&status) {
                 return Ok((step, work));
             }
-            fire.step(&mut self.position, &force, max_stiffness, max_force);
+            match &mut stepper {
+                Stepper::Fire(fire) => {
+                    fire.step(&mut self.position, &force, max_stiffness, max_force)
+                }
+                Stepper::Heun { trial, trial_force } => {
+                    // explicit on γ ẋ = F: stable for dt λ ≤ 2, and λ ≤ 2 k_max (Gershgorin)
+                    let dt = (0.8 / max_stiffness)
+                        .min(10.0)
+                        .min(MAX_MOVE / max_force.max(f64::MIN_POSITIVE));
+                    trial
+                        .par_iter_mut()
+                        .zip(&self.position)
+                        .zip(&force)
+                        .for_each(|((t, x), f)| *t = x + dt * f.0);
+                    loads.evaluate(trial, &self.container, &mut list, trial_force, &mut work);
+                    self.position
+                        .par_iter_mut()
+                        .zip(&force)
+                        .zip(&*trial_force)
+                        .for_each(|((x, f0), f1)| *x += 0.5 * dt * (f0.0 + f1.0));
+                }
+            }
         }
         Err(format!(
             "packing: a stage did not finish within {MAX_STEPS} steps"
         ))
     }
+}
+
+/// How a packing stage pushes the particles down and moves them.
+struct Drop {
+    scheme: SettlingScheme,
+    /// Each particle's share of the settling force: 1 (FIRE's device) or R³/⟨R³⟩ (a weight).
+    share: Vec<f64>,
+}
+
+impl Drop {
+    fn new(scheme: SettlingScheme, radius: &[f64]) -> Self {
+        let share = match scheme {
+            SettlingScheme::Fire => vec![1.0; radius.len()],
+            SettlingScheme::SourceDropped => {
+                let mean = radius.iter().map(|r| r.powi(3)).sum::<f64>() / radius.len() as f64;
+                radius.iter().map(|r| r.powi(3) / mean).collect()
+            }
+        };
+        Self { scheme, share }
+    }
+}
+
+/// The stage's force law: contacts (in `repulsion`) plus the downward force.
+struct Loads<'a> {
+    law: &'a ContactLaw,
+    repulsion: Repulsion,
+    drop: &'a Drop,
+    down_force: f64,
+    radius: &'a [f64],
+}
+
+impl Loads<'_> {
+    /// Every particle's load at `position` (one parallel gather; no contact list is stored);
+    /// returns the largest net force, summed stiffness and overlap (exact at any thread
+    /// count).
+    fn evaluate(
+        &self,
+        position: &[Vector3<f64>],
+        container: &Container,
+        list: &mut NeighborList<3>,
+        force: &mut [Load],
+        work: &mut ContactWork,
+    ) -> [f64; 3] {
+        list.update(position, self.radius);
+        let list = &*list;
+        force.par_iter_mut().enumerate().for_each(|(i, slot)| {
+            *slot = (
+                Vector3::new(0.0, 0.0, -self.down_force * self.drop.share[i]),
+                0.0,
+                0.0,
+                0,
+            );
+            self.law
+                .contacts_of(i, position, self.radius, list, container, |c| {
+                    let (f, k) = self.repulsion.force_and_stiffness(&c);
+                    slot.0 -= f * c.normal;
+                    slot.1 += k;
+                    slot.2 = f64::max(slot.2, c.overlap);
+                    slot.3 += u32::from(c.particle().is_some());
+                });
+        });
+        work.add(list.len(), force.par_iter().map(|f| f.3 as usize).sum());
+        force
+            .par_iter()
+            .map(|f| [f.0.norm(), f.1, f.2])
+            .reduce(|| [0.0; 3], |a, b| [0, 1, 2].map(|k| f64::max(a[k], b[k])))
+    }
+}
+
+/// The packing stages' integrators.
+enum Stepper {
+    Fire(Fire),
+    /// Heun's method on the overdamped motion (the source's §2.3), with its trial step.
+    Heun {
+        trial: Vec<Vector3<f64>>,
+        trial_force: Vec<Load>,
+    },
 }
 
 /// Solid volume of spheres (radius, centre) over the volume of the die up to the highest
