@@ -64,7 +64,8 @@ declare -A method=([default]="" [source]="--friction-scheme source-explicit --pr
 
 # §3, Fig. 6a: τ_0.95 versus H for each μ at 0.5 atm; the μ = 0 reference of the lone particles
 for h in $fields; do
-  "$bin" align --json --model ensemble --particles $n --field $h > "$out/ensemble-h$h-s1.json"
+  [ -s "$out/ensemble-h$h-s1.json" ] ||
+    "$bin" align --json --model ensemble --particles $n --field $h > "$out/ensemble-h$h-s1.json"
   for mu in $frictions; do
     for k in default source; do run $k-mu$mu-h$h --field $h --friction $mu ${method[$k]}; done
   done
