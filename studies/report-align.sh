@@ -26,11 +26,12 @@ partial() {
   k=$(compgen -G "$dir/$1-s*.json" | wc -l); n=$(n_seeds "$1")
   [ "$k" -gt 0 ] && [ "$k" -lt "$n" ] && echo " ($k of $n seeds)" || true
 }
-# mean CASE: the mean τ_0.95 over the seeds (for ratios and minima); 1e99 if not reached,
-# −1 if not run
+# mean CASE [METRIC]: the mean τ_0.95 (or METRIC) over the seeds (for ratios and minima); 1e99
+# if not reached, −1 if not run
 mean() {
   compgen -G "$dir/$1-s*.json" > /dev/null || { echo -1; return; }
-  jq -s 'map(.alignment_time_s) | if any(. == null) then 1e99 else add / length end' "$dir/$1"-s*.json
+  jq -s --arg k "${2:-alignment_time_s}" 'map(.[$k]) | if any(. == null) then 1e99
+    else add / length end' "$dir/$1"-s*.json
 }
 # pct A B: the change from B to A in per cent ("not reached" when either mean is not)
 pct() { awk -v a="$1" -v b="$2" 'BEGIN { if (a < 0 || b < 0) printf "–";
@@ -42,40 +43,68 @@ within() { awk -v a="$1" -v b="$2" -v w="$3" -v s="$4" 'BEGIN { d = 100 * (a / b
   if (a < 0 || b < 0) print "not run"
   else if (a < 1e98 && b < 1e98 && d - s <= w && s - d <= w) print "agrees"
   else print "differs" }'; }
-# argmin PREFIX: the field (kOe) of the smallest mean τ_0.95 among PREFIX-h<field>
+# argmin PREFIX [FIELDS]: the field (kOe) of the smallest mean τ_0.95 among PREFIX-h<field>, the
+# fields of the grid or those given
 argmin() {
   local best=1e99 at=– h t
-  for h in $fields; do
+  for h in ${2:-$fields}; do
     t=$(mean "$1-h$h")
     [ "$t" = -1 ] && { echo –; return; }  # an incomplete grid has no optimum
     if awk -v t="$t" -v b="$best" 'BEGIN { exit !(t >= 0 && t < b) }'; then best=$t; at=$h; fi
   done
   echo "$at"
 }
-# vertex PREFIX: the optimum field (kOe) refined between grid points: the vertex of the parabola
-# in ln H through the grid minimum of the mean τ_0.95 and its two neighbours ("–" where the
-# grid is incomplete or its minimum lies at an end of the grid)
-vertex() {
-  local h
-  for h in $fields; do echo "$h $(mean "$1-h$h")"; done | awk '
-    { x[NR] = log($1); t[NR] = $2; if ($2 < 0) bad = 1 }
+# parabola: the vertex (kOe) of the parabola in ln H through the smallest τ of "H τ" lines and
+# its two neighbours ("–" where a τ is missing (< 0) or the minimum lies at an end of the grid)
+parabola() {
+  awk '{ x[NR] = log($1); t[NR] = $2; if ($2 < 0) bad = 1 }
     END { if (bad) { print "–"; exit }
       i = 1; for (k = 2; k <= NR; k++) if (t[k] < t[i]) i = k
       if (i == 1 || i == NR || t[i] > 1e98) { print "–"; exit }
       a = x[i] - x[i-1]; b = x[i] - x[i+1]; p = t[i] - t[i+1]; q = t[i] - t[i-1]
-      printf "%.1f", exp(x[i] - 0.5 * (a * a * p - b * b * q) / (a * p - b * q)) }'
+      printf "%.1f\n", exp(x[i] - 0.5 * (a * a * p - b * b * q) / (a * p - b * q)) }'
 }
-# wall PATTERN: total wall time (min) of the runs matching the glob
-wall() { cat "$dir"/$1 2> /dev/null | jq -rs 'if length == 0 then "–" else map(.wall_time_s) | add
+# vertex PREFIX: the optimum field (kOe) refined between grid points: the vertex of the mean τ
+vertex() { local h; for h in $fields; do echo "$h $(mean "$1-h$h" "${2:-}")"; done | parabola; }
+# seed_vertices PREFIX [METRIC]: the vertex of each seed's own τ(H) (its packing), one per line
+seed_vertices() {
+  local s h f
+  for s in $seeds; do
+    for h in $fields; do
+      f=$dir/$1-h$h-s$s.json
+      if [ -s "$f" ]; then echo "$h $(jq --arg k "${2:-alignment_time_s}" '.[$k] // 1e99' "$f")"
+      else echo "$h -1"; fi
+    done | parabola
+  done
+}
+# paired PREFIX [BASE [METRIC]]: mean ± standard error over the seeds of the seed vertices of
+# PREFIX (of METRIC; minus those of BASE's τ_0.95 on the same packings, if given); "–" unless
+# every seed has a vertex
+paired() {
+  paste <(seed_vertices "$1" "${3:-}") <([ -n "${2:-}" ] && seed_vertices "$2" ||
+    printf '0\n%.0s' $seeds) |
+    awk -v sign="${2:+1}" '$1 == "–" || $2 == "–" { bad = 1 } { d[NR] = $1 - $2; m += d[NR] }
+      END { n = NR; if (bad || n == 0) { print "–"; exit }; m /= n
+        for (k = 1; k <= n; k++) v += (d[k] - m) ^ 2
+        se = n > 1 ? sqrt(v / (n - 1) / n) : 0
+        printf (sign ? "%+.1f" : "%.1f"), m; if (n > 1) printf " ± %.1f", se; print "" }'
+}
+# ran GLOB…: the run records matching the globs that ran as themselves (a link records another
+# case's run, counted there)
+ran() { local f; for f in "$@"; do compgen -G "$dir/$f" || true; done | while read -r f; do
+  [ -L "$f" ] || echo "$f"; done; }
+# wall GLOB…: total wall time (min) of those runs' alignment stages
+wall() { ran "$@" | xargs -r cat | jq -rs 'if length == 0 then "–" else map(.wall_time_s) | add
   / 60 * 10 | round / 10 end'; }
-# runs PATTERN…: how many runs match the globs
-runs() { local f k=0; for f in "$@"; do compgen -G "$dir/$f" > /dev/null && k=$((k + $(compgen -G "$dir/$f" | wc -l))); done; echo $k; }
+# runs GLOB…: how many runs those are
+runs() { ran "$@" | wc -l; }
 cmd() { cmd_of align "friction field_kOe pressure_atm pressure_mode friction_scheme moment_branch settling_scheme" "$1-s1"; }
 n=$(m default-mu0-h40-s1 parameters.particles %.0f)
 # machine: the cores and the parallel runs of the recorded studies (timing.tsv)
 machine() {
   [ -s "$dir/timing.tsv" ] || { echo "2 cores shared with other jobs"; return; }
-  awk -F'\t' 'NR == 1 { printf "%d cores, %d runs at a time (one thread each)", $4, $5 }' "$dir/timing.tsv"
+  awk -F'\t' -v cpu="${cpu:-}" 'NR == 1 { printf "%d cores%s, %d runs at a time (one thread each)",
+    $4, cpu == "" ? "" : " (" cpu ")", $5 }' "$dir/timing.tsv"
 }
 # clock STUDY: the wall-clock time (min) the named studies of timing.tsv took, summed
 clock() { awk -F'\t' -v s=" $* " 'index(s, " " $1 " ") { t += $3; k = 1 }
@@ -109,14 +138,26 @@ echo "| μ 0 → 0.5 at 40 kOe (§3, Fig. 6b) | +35 % | $(pct "$d5" "$d0")$(part
 optimum_verdict() {
   case $1 in
     –) echo "not run (grid incomplete)" ;;
-    40) echo agrees ;;
+    40) echo "agrees on the grid; the vertex per packing: $(paired "$2") kOe" ;;
     *) echo "differs: τ at 40 kOe is $(pct "$(mean "$2-h40")" "$(mean "$2-h$1")") above the minimum (default), a flat valley; how far each candidate difference moves it: last table" ;;
   esac
 }
 for mu in $frictions; do
   at=$(argmin default-mu$mu)
-  echo "| optimum field at μ = $mu (§3, Fig. 6a; grid $fields kOe; vertex of a parabola in ln H) | ≈ 40 kOe | $at kOe ($(vertex default-mu$mu)) | $(argmin source-mu$mu) kOe ($(vertex source-mu$mu)) | – | default-mu$mu-h* | $(optimum_verdict "$at" default-mu$mu) |"
+  echo "| optimum field at μ = $mu (§3, Fig. 6a; grid $fields kOe; in brackets the vertex of a parabola in ln H, mean ± s.e. over the packings) | ≈ 40 kOe | $at kOe ($(paired default-mu$mu)) | $(argmin source-mu$mu) kOe ($(paired source-mu$mu)) | – | default-mu$mu-h* | $(optimum_verdict "$at" default-mu$mu) |"
 done
+# fig6a MODE MU / fig7a MODE P: the case prefix of a τ(H) curve of Fig. 6a or 7a in a load mode
+# (exposed-layer, punch, source-layer with magopt's friction) or with the source's method
+fig6a() { case $1 in exposed-layer) echo default-mu$2 ;; source) echo source-mu$2 ;; *) echo pm$1-mu$2 ;; esac; }
+fig7a() { echo fig7a-$1-p$2; }
+# the grid without 31 kOe (the fields §3 names are 20, 40 and 100 kOe; its grid is not stated)
+coarse=$(for h in $fields; do [ "$h" = 31 ] || printf '%s ' "$h"; done); coarse=${coarse% }
+# on_coarse MODE: the grid minimum on that grid of each μ row of Fig. 6a in MODE
+on_coarse() { local mu; for mu in $frictions; do printf '%s ' "$(argmin "$(fig6a $1 $mu)" "$coarse")"; done; }
+dc=$(on_coarse exposed-layer); pc=$(on_coarse punch); lc=$(on_coarse source-layer); sc=$(on_coarse source)
+coarse_verdict=$(awk -v l="$dc$pc$lc$sc" 'BEGIN { n = split(l, a, " "); for (k = 1; k <= n; k++) if (a[k] != 40) bad = 1
+  print bad ? "differs on some rows" : "reproduced on such a grid: with no point between 20 and 40 kOe the flat valley reads as a minimum at 40 kOe" }')
+echo "| optimum on a grid without 31 kOe ($coarse kOe; the fields §3 names are 20, 40, 100 kOe, its grid is not stated) | ≈ 40 kOe | ${dc}kOe (μ = $frictions; exposed layer), ${pc}kOe (punch), ${lc}kOe (source layer) | ${sc}kOe | – | default-mu*-h* | $coarse_verdict |"
 echo "| μ = 0 optimum of lone particles (\`--model ensemble\`, milliseconds) | – | $(argmin ensemble) kOe ($(vertex ensemble)) | | | ensemble-h* | with μ = 0 the DEM is this model on its own particles |"
 echo "| τ(100 kOe) > τ(40 kOe) (§3) | larger | $(tau default-mu0.2-h100) vs $(tau default-mu0.2-h40) s (μ = 0.2) | $(tau source-mu0.2-h100) vs $(tau source-mu0.2-h40) s | – | *-mu0.2-h100 | compare per row |"
 p0=$(mean pmsource-layer-p0); p10=$(mean pmsource-layer-p10)
@@ -128,20 +169,36 @@ spread() {
   tr ' ' '\n' <<< "$all" | awk 'NF { if (n++ == 0 || $1 < lo) lo = $1; if ($1 > hi) hi = $1 }
     END { printf "%.1f–%.1f kOe", lo, hi }'
 }
-echo "| the minimum's position is nearly independent of μ and P (§3, Figs. 6a and 7a) | nearly independent | vertices $(spread $(printf 'default-mu%s ' $frictions)) over μ, $(spread $(printf 'fig7a-default-p%s ' $pressures)) over P | $(spread $(printf 'source-mu%s ' $frictions)) over μ, $(spread $(printf 'fig7a-source-p%s ' $pressures)) over P | – | default-mu*-h*, fig7a-* | compare the ranges with the replicate spread of τ near the minimum (tables below); a flat valley moves its vertex with small changes of τ |"
+# spreads FIG: the vertex range over μ (Fig. 6a) or P (Fig. 7a) of each load mode
+spreads() {
+  local pm x
+  for pm in exposed-layer punch source-layer; do
+    printf '%s%s' "${x:+, }" "$pm $(spread $(for x in $([ "$1" = fig6a ] && echo $frictions || echo $pressures); do $1 $pm $x; done))"; x=1
+  done
+}
+echo "| the minimum's position is nearly independent of μ and P (§3, Figs. 6a and 7a) | nearly independent | vertices over μ: $(spreads fig6a); over P: $(spreads fig7a) | over μ $(spread $(for mu in $frictions; do fig6a source $mu; done)), over P $(spread $(for p in $pressures; do fig7a source $p; done)) | – | default-mu*-h*, pm*-mu*, fig7a-* | with the source's method: reproduced (the ranges above); with magopt's friction the vertex moves up where friction holds the particles near A = 0.95 (μ = 0.5 at 0.5 atm, 10 atm at μ = 0.05: the creep regime, docs/align.md \"The ≈ 40 kOe question\") and stays within about 2 kOe of the frictionless vertex elsewhere |"
 cat <<'MID'
 
 ## τ_0.95 (s) versus H at 0.5 atm (Fig. 6a)
 
+Rows: magopt's friction with each load mode (exposed-layer is the default), then the source's
+method. "vertex per packing": mean ± standard error over the packings of each packing's own
+vertex.
+
 MID
-printf '| method, μ |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex |"
-printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|"
-printf '| ensemble (μ = 0, no contacts) |'; for h in $fields; do printf ' %s |' "$(tau ensemble-h$h)"; done; echo " $(argmin ensemble) | $(vertex ensemble) |"
-for k in default source; do
-  for mu in $frictions; do
-    printf '| %s, %s |' "$k" "$mu"; for h in $fields; do printf ' %s |' "$(tau $k-mu$mu-h$h)"; done
-    echo " $(argmin $k-mu$mu) | $(vertex $k-mu$mu) |"
-  done
+printf '| method, μ |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex | vertex per packing |"
+printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|---|"
+printf '| ensemble (μ = 0, no contacts) |'; for h in $fields; do printf ' %s |' "$(tau ensemble-h$h)"; done; echo " $(argmin ensemble) | $(vertex ensemble) | |"
+# label MODE: a row's name (a load mode with magopt's friction, or the source's method)
+label() { if [ "$1" = source ]; then echo "source method"; else echo "$1"; fi; }
+# curve LABEL PREFIX: one table row of a τ(H) curve
+curve() {
+  local h
+  printf '| %s |' "$1"; for h in $fields; do printf ' %s |' "$(tau $2-h$h)"; done
+  echo " $(argmin $2) | $(vertex $2) | $(paired $2) |"
+}
+for k in exposed-layer punch source-layer source; do
+  for mu in $frictions; do curve "$(label $k), $mu" "$(fig6a $k $mu)"; done
 done
 cat <<'MID'
 
@@ -150,13 +207,10 @@ cat <<'MID'
 The 40 kOe column is Fig. 7b's runs (below).
 
 MID
-printf '| method, P (atm) |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex |"
-printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|"
-for k in default source; do
-  for p in $pressures; do
-    printf '| %s, %s |' "$k" "$p"; for h in $fields; do printf ' %s |' "$(tau fig7a-$k-p$p-h$h)"; done
-    echo " $(argmin fig7a-$k-p$p) | $(vertex fig7a-$k-p$p) |"
-  done
+printf '| method, P (atm) |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex | vertex per packing |"
+printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|---|"
+for k in exposed-layer punch source-layer source; do
+  for p in $pressures; do curve "$(label $k), $p" "$(fig7a $k $p)"; done
 done
 cat <<'MID'
 
@@ -181,25 +235,34 @@ done
 for k in source limit; do
   printf '| %s |' "$k"; for p in $pressures; do printf ' %s |' "$(tau $k-p$p)"; done; echo
 done
-cat <<'MID'
+headline=results/optimize-field-srfe12o19/optimum.json
+cat <<MID
 
 ## The ≈ 40 kOe question: each candidate difference alone (μ = 0.2, 0.5 atm)
 
 Each row changes one ingredient from magopt's default (docs/align.md, "The ≈ 40 kOe
-question"); the optimum is the grid point of the smallest τ_0.95.
+question"); the optimum is the grid point of the smallest mean τ_0.95. "vertex": of the parabola
+in ln H through the smallest mean τ and its neighbours, a coarse model of an asymmetric valley
+(steep below the minimum, flat above): it puts the default's minimum at $(vertex default-mu0.2)
+kOe (this run: N = $n, seeds $seeds), where the Brent search of \`magopt optimize-field\` (N = 1000, seeds
+1–4, \`$headline\`) finds $(jq -r '"\(.optimum.field_kOe * 10 | round / 10) ± \(.uncertainty.field_kOe
+* 10 | round / 10)"' "$headline") kOe; read the shifts, not the absolute vertices. "shift": the
+candidate's vertex minus the default's, packing by packing (the same seeds, hence the same
+packings unless the candidate changes the settling), mean ± standard error over the packings.
 
 MID
-printf '| candidate |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex | shift of the vertex |"
+printf '| candidate |'; for h in $fields; do printf ' %s kOe |' "$h"; done; echo " optimum | vertex | shift of the vertex (kOe) |"
 printf '|---|'; for h in $fields; do printf -- '---|'; done; echo "---|---|---|"
-base=$(vertex default-mu0.2)
 printf '| none (default) |'; for h in $fields; do printf ' %s |' "$(tau default-mu0.2-h$h)"; done
-echo " $(argmin default-mu0.2) | $base | – |"
-for c in source-layer punch source-explicit coulomb-limit metastable source-dropped; do
-  at=$(vertex cand-$c)
+echo " $(argmin default-mu0.2) | $(vertex default-mu0.2) | – |"
+for c in source-layer punch source-explicit coulomb-limit metastable source-dropped \
+  monodisperse half-step; do
   printf '| %s |' "$c"; for h in $fields; do printf ' %s |' "$(tau cand-$c-h$h)"; done
-  echo " $(argmin cand-$c) | $at | $(awk -v a="$at" -v b="$base" 'BEGIN { if (a == "–" || b == "–") printf "–";
-    else printf "%+.1f kOe", a - b }') |"
+  echo " $(argmin cand-$c) | $(vertex cand-$c) | $(paired cand-$c default-mu0.2) |"
 done
+printf '| τ_0.90 in place of τ_0.95 (the default runs) |'
+for h in $fields; do printf ' %s |' "$(tau default-mu0.2-h$h alignment_time_90_s)"; done
+echo " – | $(vertex default-mu0.2 alignment_time_90_s) | $(paired default-mu0.2 default-mu0.2 alignment_time_90_s) |"
 cat <<MID
 
 ## Wall time of each study
@@ -212,7 +275,8 @@ included; – where the study ran before timing was recorded or in pieces).
 |---|---|---|---|
 | τ vs H, μ (Fig. 6a), default and source | $(runs 'default-mu*-s*.json' 'source-mu*-s*.json') | $(wall 'default-mu*-s*.json') + $(wall 'source-mu*-s*.json') | $(clock fig6a) |
 | τ vs μ, Coulomb limit (Fig. 6b) | $(runs 'limit-mu*-s*.json') | $(wall 'limit-mu*-s*.json') | $(clock fig6b-limit) |
-| τ vs P (Fig. 7b), all modes | $(runs 'pm*-s*.json' 'source-p*-s*.json' 'limit-p*-s*.json') | $(wall 'pm*-s*.json') + $(wall 'source-p*-s*.json') + $(wall 'limit-p*-s*.json') | $(clock fig7b fig7b-limit) |
-| τ vs H, P (Fig. 7a; 40 kOe from Fig. 7b) | $(runs 'fig7a-*-h[!4]*-s*.json') | $(wall 'fig7a-default-*-h[!4]*-s*.json') + $(wall 'fig7a-source-*-h[!4]*-s*.json') | $(clock fig7a) |
+| τ vs P (Fig. 7b), all modes | $(runs 'pm*-p[0-9]*-s*.json' 'source-p*-s*.json' 'limit-p*-s*.json') | $(wall 'pm*-p[0-9]*-s*.json') + $(wall 'source-p*-s*.json') + $(wall 'limit-p*-s*.json') | $(clock fig7b fig7b-limit) |
+| τ vs H, μ (Fig. 6a), punch and source layer (μ = 0.2: the candidates' runs) | $(runs 'pmpunch-mu*-s*.json' 'pmsource-layer-mu*-s*.json') | $(wall 'pmpunch-mu*-s*.json') + $(wall 'pmsource-layer-mu*-s*.json') | $(clock fig6a-modes) |
+| τ vs H, P (Fig. 7a; 40 kOe from Fig. 7b) | $(runs 'fig7a-*-s*.json') | $(wall 'fig7a-*-s*.json') | $(clock fig7a) |
 | candidates (≈ 40 kOe question) | $(runs 'cand-*-s*.json') | $(wall 'cand-*-s*.json') | $(clock candidates) |
 MID

@@ -3,8 +3,9 @@
 # results/reproduction/align.md and renders the report (studies/report-align.sh).
 # Usage (from the repository root):
 #   bash studies/reproduce-align.sh          # full: N = 1000, 4 replicates, the source's grids
-#                                            # (§3, Figs. 6–7): many CPU hours on 2 cores
+#                                            # (§3, Figs. 6–7): 1512 runs, about 1.5 h on 2 cores
 #   bash studies/reproduce-align.sh --quick  # CI size: N = 150, one replicate, coarser grids
+#                                            # (236 runs, about 2 min on 2 cores)
 # Runs land in results/reproduction/align-runs[-quick]/<case>-s<seed>.json (the `magopt align
 # --json` record of each run); the report goes to results/reproduction/align[-quick].md. Cases
 # already recorded are kept (delete the directory to start over), so an interrupted run resumes.
@@ -26,8 +27,9 @@ fi
 pressures="0 0.5 1 5 10"
 out=results/reproduction/align-runs$suffix
 mkdir -p "$out"
-printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\n' "$fields" \
-  "$frictions" "$pressures" "$seeds" "$limit_time" > "$out/grid.env"
+printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\ncpu="%s"\n' "$fields" \
+  "$frictions" "$pressures" "$seeds" "$limit_time" \
+  "$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)" > "$out/grid.env"
 jobs=${JOBS:-$(nproc)}
 queue=$(mktemp); trap 'rm -f "$queue"' EXIT
 # run CASE ARG…: queue one run per seed, recorded as CASE-s<seed>.json (see `study`)
@@ -57,6 +59,11 @@ study() {
     'BEGIN { printf "%s\t%d\t%.0f\t%d\t%d\n", s, k, t1 - t0, c, j }' >> "$out/timing.tsv"
   : > "$queue"
 }
+# link RUN CASE: record the case RUN as CASE too (the same command), for each seed where RUN ran
+link() {
+  local s
+  for s in $seeds; do [ ! -s "$out/$1-s$s.json" ] || ln -sf "$1-s$s.json" "$out/$2-s$s.json"; done
+}
 # the three methods: magopt's default (implicit regularized friction, exposed-layer load), the
 # source's (its explicit Eq. (8), its top-layer load rule) and the Coulomb limit (v_ε = 0)
 declare -A method=([default]="" [source]="--friction-scheme source-explicit --pressure-mode source-layer"
@@ -74,11 +81,22 @@ study fig6a
 # docs/align.md, "The ≈ 40 kOe question": each candidate difference alone, at μ = 0.2, over H
 declare -A candidate=([source-layer]="--pressure-mode source-layer" [punch]="--pressure-mode punch"
   [source-explicit]="--friction-scheme source-explicit" [coulomb-limit]="${method[limit]}"
-  [metastable]="--moment-branch metastable")
+  [metastable]="--moment-branch metastable" [monodisperse]="--diameter-sigma 0"
+  [half-step]="--rotation-step 0.025")
 for c in "${!candidate[@]}"; do
   for h in $fields; do run cand-$c-h$h --field $h --friction 0.2 ${candidate[$c]}; done
 done
 study candidates
+# Fig. 6a in the other two load modes, default friction (μ = 0.2: the candidates' runs, linked)
+for pm in punch source-layer; do
+  for mu in $frictions; do
+    for h in $fields; do
+      if [ "$mu" = 0.2 ]; then link cand-$pm-h$h pm$pm-mu0.2-h$h
+      else run pm$pm-mu$mu-h$h --field $h --friction $mu --pressure-mode $pm; fi
+    done
+  done
+done
+study fig6a-modes
 # the source's settling (overdamped drop) makes a packing about 40× slower than FIRE: one sweep
 # over the fields makes each seed's packing once (the study runner caches packings per seed)
 # where one `magopt align` per field would make it eight times; each run record becomes a case
@@ -119,21 +137,16 @@ for p in $pressures; do
   run source-p$p --field 40 --friction 0.05 --pressure $p ${method[source]}
 done
 study fig7b
-# link RUN CASE: record RUN's result as CASE too (where RUN ran)
-link() { [ ! -s "$out/$1.json" ] || ln -sf "$1.json" "$out/$2.json"; }
-# §3, Fig. 7a: τ_0.95 versus H for each P at μ = 0.05, default and source method; its 40 kOe
-# points are Fig. 7b's runs (linked, not rerun)
+# §3, Fig. 7a: τ_0.95 versus H for each P at μ = 0.05, default friction in each load mode and
+# the source's method; its 40 kOe points are Fig. 7b's runs (linked, not rerun)
 for p in $pressures; do
   for h in $fields; do
-    if [ "$h" = 40 ]; then
-      for s in $seeds; do
-        link pmexposed-layer-p$p-s$s fig7a-default-p$p-h40-s$s
-        link source-p$p-s$s fig7a-source-p$p-h40-s$s
-      done
-      continue
-    fi
-    run fig7a-default-p$p-h$h --field $h --friction 0.05 --pressure $p
-    run fig7a-source-p$p-h$h --field $h --friction 0.05 --pressure $p ${method[source]}
+    for pm in exposed-layer punch source-layer; do
+      if [ "$h" = 40 ]; then link pm$pm-p$p fig7a-$pm-p$p-h40
+      else run fig7a-$pm-p$p-h$h --field $h --friction 0.05 --pressure $p --pressure-mode $pm; fi
+    done
+    if [ "$h" = 40 ]; then link source-p$p fig7a-source-p$p-h40
+    else run fig7a-source-p$p-h$h --field $h --friction 0.05 --pressure $p ${method[source]}; fi
   done
 done
 study fig7a
