@@ -47,7 +47,7 @@ pub enum FrictionScheme {
     CoulombLimit,
 }
 
-/// How the packing stages 2–3 move the particles (spec align.md, "Stages"; issue 12 item 2).
+/// How the three packing stages move the particles (spec align.md, "Stages"; issue 12 item 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum SettlingScheme {
@@ -90,7 +90,7 @@ pub struct Numerics {
     /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
     /// cells; the result is the same at any thread count). 4000.
     pub parallel_from: usize,
-    /// How stages 2–3 move the particles: FIRE (default) or the source's overdamped drop.
+    /// How the packing stages move the particles: FIRE (default) or the source's overdamped drop.
     pub settling_scheme: SettlingScheme,
     /// Settling force per particle (stage 3), in units of E R_av². A numerical device: real
     /// gravity is ~1e-12 of the contact scale and would never settle the bed. 1e-3.

@@ -89,13 +89,14 @@ impl Packing {
             skin: 0.0,
         };
         let n = &params.numerics;
-        let drop = Drop::new(n.settling_scheme, &packing.radius);
+        let settling = Settling::new(n.settling_scheme, &packing.radius);
         let mut work = [ContactWork::default(); 3];
-        (packing.steps[0], work[0]) = packing.flow(&law, Repulsion::Harmonic, &drop, 0.0, |s| {
-            s.max_overlap < n.overlap_tolerance
-        })?;
+        (packing.steps[0], work[0]) =
+            packing.flow(&law, Repulsion::Harmonic, &settling, 0.0, |s| {
+                s.max_overlap < n.overlap_tolerance
+            })?;
         let f = n.settling_force;
-        (packing.steps[1], work[1]) = packing.flow(&law, Repulsion::Hertz, &drop, f, |s| {
+        (packing.steps[1], work[1]) = packing.flow(&law, Repulsion::Hertz, &settling, f, |s| {
             let speed = match n.rest_measure {
                 RestMeasure::Max => s.max_force,
                 RestMeasure::Rms => s.rms_force,
@@ -103,9 +104,10 @@ impl Packing {
             s.steps > 10 && speed < n.rest_speed * f
         })?;
         packing.container.top = None;
-        (packing.steps[2], work[2]) = packing.flow(&law, Repulsion::Hertz, &drop, 0.0, |s| {
-            s.max_overlap < n.overlap_tolerance
-        })?;
+        (packing.steps[2], work[2]) =
+            packing.flow(&law, Repulsion::Hertz, &settling, 0.0, |s| {
+                s.max_overlap < n.overlap_tolerance
+            })?;
         Ok((packing, work))
     }
 
@@ -120,14 +122,14 @@ impl Packing {
         &mut self,
         law: &ContactLaw,
         repulsion: Repulsion,
-        drop: &Drop,
+        settling: &Settling,
         down_force: f64,
         done: impl Fn(&FlowStatus) -> bool,
     ) -> Result<(usize, ContactWork), String> {
         let n = self.radius.len();
         let mut list = NeighborList::new(SKIN);
         let mut force = vec![(Vector3::zeros(), 0.0, 0.0, 0); n];
-        let mut stepper = match drop.scheme {
+        let mut stepper = match settling.scheme {
             SettlingScheme::Fire => Stepper::Fire(Fire::new(n)),
             SettlingScheme::SourceDropped => Stepper::Heun {
                 trial: vec![Vector3::zeros(); n],
@@ -138,7 +140,7 @@ impl Packing {
         let loads = Loads {
             law,
             repulsion,
-            drop,
+            settling,
             down_force,
             radius: &self.radius,
         };
@@ -194,13 +196,13 @@ impl Packing {
 }
 
 /// How a packing stage pushes the particles down and moves them.
-struct Drop {
+struct Settling {
     scheme: SettlingScheme,
     /// Each particle's share of the settling force: 1 (FIRE's device) or R³/⟨R³⟩ (a weight).
     share: Vec<f64>,
 }
 
-impl Drop {
+impl Settling {
     fn new(scheme: SettlingScheme, radius: &[f64]) -> Self {
         let share = match scheme {
             SettlingScheme::Fire => vec![1.0; radius.len()],
@@ -217,7 +219,7 @@ impl Drop {
 struct Loads<'a> {
     law: &'a ContactLaw,
     repulsion: Repulsion,
-    drop: &'a Drop,
+    settling: &'a Settling,
     down_force: f64,
     radius: &'a [f64],
 }
@@ -238,7 +240,7 @@ impl Loads<'_> {
         let list = &*list;
         force.par_iter_mut().enumerate().for_each(|(i, slot)| {
             *slot = (
-                Vector3::new(0.0, 0.0, -self.down_force * self.drop.share[i]),
+                Vector3::new(0.0, 0.0, -self.down_force * self.settling.share[i]),
                 0.0,
                 0.0,
                 0,
