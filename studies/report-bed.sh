@@ -237,6 +237,7 @@ inside=$(for r in 6.26 7.26 8.26 9.26 10.26 11.26 12.26; do
 if [ -n "$inside" ]; then
   printf '\nVerdict: the smallest r_v whose F_max lies in the exact band (mean ± sd) is %s D (source: 11.26 D); the forces rise toward the exact sums as r_v grows.\n' "$inside"
 fi
+printf '\nWall times are each record'"'"'s own; a resumed reproduction holds runs made in different sessions and at different machine loads (the run table at the end lists every run), so the wall / exact column is indicative, not a measurement of one machine.\n'
 cat <<EOF
 
 ## Table A.2: Voronoi statistics at maximum compression (seeds 1–3)

@@ -137,9 +137,11 @@ impl Interactor {
         let me = body(i);
         let flags = self.law.flags;
         if flags.contact || flags.damping || flags.friction {
-            let bonds = &self.bonds[i];
+            // both lists ascend: one merged walk skips the bonded partners
+            let mut bonded = self.bonds[i].iter().map(|&(b, _)| b).peekable();
             for &j in self.contacts.of(i) {
-                if bonds.iter().any(|&(b, _)| b == j) {
+                while bonded.next_if(|&b| b < j).is_some() {}
+                if bonded.peek() == Some(&j) {
                     continue; // bonded pairs are handled below, touching or not
                 }
                 let (f, m) = self.law.contact(&me, &body(j as usize), None, dt);
@@ -188,7 +190,8 @@ impl Interactor {
     }
 
     /// Bonds every touching pair whose overlap strain has reached ε* (C7); bonds are
-    /// permanent. Returns the number of new bonds.
+    /// permanent. Returns the number of new bonds. Each particle adds only to its own list,
+    /// so the particles are searched in parallel with the same lists as one by one.
     pub fn form_bonds(&mut self, cloud: &Cloud) -> usize {
         if !self.law.flags.bonding {
             return 0;
@@ -196,19 +199,32 @@ impl Interactor {
         self.contacts.update(&cloud.positions, &self.radii);
         let radius = self.law.radius;
         let threshold = self.law.contact.bond_strain;
-        let mut formed = 0;
-        for i in 0..cloud.len() {
-            for &j in self.contacts.of(i) {
-                let dist = (cloud.positions[j as usize] - cloud.positions[i]).norm();
-                let strain = (2.0 * radius - dist) / (2.0 * radius);
-                let list = &mut self.bonds[i];
-                if strain >= threshold && !list.iter().any(|&(b, _)| b == j) {
-                    list.push((j, contact_area(radius, dist)));
-                    list.sort_unstable_by_key(|&(b, _)| b);
-                    formed += 1;
+        // strain ≥ ε* needs dist ≤ 2R(1 − ε*): pairs clearly farther skip the square root
+        let reach = (2.0 * radius * (1.0 - threshold)).max(0.0);
+        let reach2 = reach * reach * (1.0 + 1e-9);
+        let (contacts, positions) = (&self.contacts, &cloud.positions);
+        let formed: usize = self
+            .bonds
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(CHUNK)
+            .map(|(i, list)| {
+                let before = list.len();
+                for &j in contacts.of(i) {
+                    let d = positions[j as usize] - positions[i];
+                    if d.norm_squared() > reach2 {
+                        continue;
+                    }
+                    let dist = d.norm();
+                    let strain = (2.0 * radius - dist) / (2.0 * radius);
+                    if strain >= threshold && !list.iter().any(|&(b, _)| b == j) {
+                        list.push((j, contact_area(radius, dist)));
+                    }
                 }
-            }
-        }
+                list.sort_unstable_by_key(|&(b, _)| b);
+                list.len() - before
+            })
+            .sum();
         formed / 2
     }
 }

@@ -76,6 +76,11 @@ impl PairLaw {
     /// is not bonded. `dt` is the step of the regularized stick laws.
     pub fn contact(&self, i: &Body, j: &Body, bond_area: Option<f64>, dt: f64) -> Wrench {
         let d = j.position - i.position;
+        let touch = 2.0 * self.radius;
+        if bond_area.is_none() && d.norm_squared() > touch * touch * (1.0 + 1e-9) {
+            // clearly apart (dist > 2R, strain < 0): the zero below without the square root
+            return (Vector3::zeros(), Vector3::zeros());
+        }
         let dist = d.norm();
         let strain = (2.0 * self.radius - dist) / (2.0 * self.radius);
         if (strain <= 0.0 && bond_area.is_none()) || dist == 0.0 {
@@ -206,4 +211,39 @@ pub fn contact_area(radius: f64, dist: f64) -> f64 {
 pub fn softened_stiffness(c: &ContactParams) -> f64 {
     let factor = (-c.softening_rate * (c.temperature / c.reference_temperature - 1.0)).exp();
     (c.stiffness * factor).max(c.stiffness_floor)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::blast::switches::Interactions;
+
+    fn at(x: f64) -> Body {
+        Body {
+            position: Vector3::new(x, 0.0, 0.0),
+            velocity: Vector3::new(0.0, 0.1 * x, 0.0),
+            spin: Vector3::zeros(),
+        }
+    }
+
+    /// The shortcut for pairs clearly apart never drops a touching pair: at 2R(1 − 1e-12)
+    /// the normal force acts, at 2R and beyond it is zero, and a bonded pair beyond
+    /// touching keeps its bond force.
+    #[test]
+    fn contact_acts_exactly_while_the_spheres_overlap() {
+        let mut params = BlastParams::source_example();
+        params.interactions = Interactions::all();
+        let law = PairLaw::new(&params);
+        let touch = 2.0 * law.radius;
+        let force = |dist: f64, bond: Option<f64>| law.contact(&at(0.0), &at(dist), bond, 1e-4).0;
+        assert!(force(touch * (1.0 - 1e-12), None).x < 0.0, "pushed apart");
+        for dist in [touch, touch * (1.0 + 1e-12), 1.2 * touch] {
+            assert_eq!(force(dist, None), Vector3::zeros(), "{dist}");
+        }
+        let area = contact_area(law.radius, 0.9 * touch);
+        assert!(
+            force(1.01 * touch, Some(area)).x > 0.0,
+            "the bond pulls back"
+        );
+    }
 }
