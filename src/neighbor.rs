@@ -15,8 +15,8 @@ use nalgebra::SVector;
 use rayon::prelude::*;
 
 /// From this many points on, a build searches in parallel blocks of `BUILD_BLOCK` points.
-const PARALLEL_BUILD_FROM: usize = 4096;
-const BUILD_BLOCK: usize = 1024;
+const PARALLEL_BUILD_FROM: usize = 1024;
+const BUILD_BLOCK: usize = 256;
 
 /// Full (both directions) Verlet neighbour list in compressed-row form.
 #[derive(Debug, Clone)]
