@@ -65,6 +65,12 @@ for r in $radii; do
       --list-radius $r --rebuild-skin 4.13 "${std[@]}"
   done
 done
+# Table 5.1's slope: the same Verlet-variant cycles (seed 1) with the plates' dry friction
+# replaced by the viscous law alone; F_max − F_max(viscous) is the dry friction's share
+for n in $table52; do
+  run bed svvisc-N$n-s1 --particles $n --seed 1 --neighbors source-verlet --list-radius 11.26 \
+    --rebuild-skin 4.13 --friction-model viscous "${std[@]}"
+done
 # Figs. 4.23–4.24: magnetic force vectors and their fluctuations at maximum compression, the
 # standard bi-disperse system (a = 0.6, dry friction) at R = 0.25, 0.5, 0.75 (magopt analyze on
 # the run's snapshot: force_vectors.png, fluctuations.png and the force-chain measures)
