@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::all_pairs::AllPairs;
 use super::cloud::Cloud;
 use super::field::{lorentz_acceleration, Drag};
-use super::pairs::{contact_area, Body, PairLaw};
+use super::pairs::{clearly_beyond, contact_area, Body, PairLaw};
 use super::params::BlastParams;
 use super::tree::Octree;
 use crate::neighbor::NeighborList;
@@ -201,7 +201,6 @@ impl Interactor {
         let threshold = self.law.contact.bond_strain;
         // strain ≥ ε* needs dist ≤ 2R(1 − ε*): pairs clearly farther skip the square root
         let reach = (2.0 * radius * (1.0 - threshold)).max(0.0);
-        let reach2 = reach * reach * (1.0 + 1e-9);
         let (contacts, positions) = (&self.contacts, &cloud.positions);
         let formed: usize = self
             .bonds
@@ -212,16 +211,20 @@ impl Interactor {
                 let before = list.len();
                 for &j in contacts.of(i) {
                     let d = positions[j as usize] - positions[i];
-                    if d.norm_squared() > reach2 {
+                    if clearly_beyond(&d, reach) {
                         continue;
                     }
                     let dist = d.norm();
                     let strain = (2.0 * radius - dist) / (2.0 * radius);
-                    if strain >= threshold && !list.iter().any(|&(b, _)| b == j) {
+                    // the bonds before this call ascend; a listed j occurs once
+                    let known = list[..before].binary_search_by_key(&j, |&(b, _)| b).is_ok();
+                    if strain >= threshold && !known {
                         list.push((j, contact_area(radius, dist)));
                     }
                 }
-                list.sort_unstable_by_key(|&(b, _)| b);
+                if list.len() > before {
+                    list.sort_unstable_by_key(|&(b, _)| b);
+                }
                 list.len() - before
             })
             .sum();

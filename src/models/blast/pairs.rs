@@ -76,9 +76,8 @@ impl PairLaw {
     /// is not bonded. `dt` is the step of the regularized stick laws.
     pub fn contact(&self, i: &Body, j: &Body, bond_area: Option<f64>, dt: f64) -> Wrench {
         let d = j.position - i.position;
-        let touch = 2.0 * self.radius;
-        if bond_area.is_none() && d.norm_squared() > touch * touch * (1.0 + 1e-9) {
-            // clearly apart (dist > 2R, strain < 0): the zero below without the square root
+        if bond_area.is_none() && clearly_beyond(&d, 2.0 * self.radius) {
+            // apart (dist > 2R, strain < 0): the zero below without the square root
             return (Vector3::zeros(), Vector3::zeros());
         }
         let dist = d.norm();
@@ -197,6 +196,12 @@ fn power(x: f64, p: f64) -> f64 {
     } else {
         x.powf(p)
     }
+}
+
+/// Whether the separation `d` is longer than `reach` (m) by far more than round-off: a test on
+/// |d|² that lets a pair skip the square root, never a pair the exact test |d| ≤ reach keeps.
+pub fn clearly_beyond(d: &Vector3<f64>, reach: f64) -> bool {
+    d.norm_squared() > reach * reach * (1.0 + 1e-9)
 }
 
 /// Contact area A^c = π(R² − L²) of two equal spheres with centres `dist` apart (C4), m²;
