@@ -319,47 +319,67 @@ fractions of the counted Voronoi cells, docs/analysis.md).
 
 The source gives bi-exponential fits A e^{λ1 R} + B e^{λ2 R} (Table 4.5); their values at R are
 the source column. Command: \`magopt bed --preset bidisperse --particles $n_bi --aspect-ratio a
---mixing-ratio R --piston-speed 1mm/s --json\` (case bi-a<a>-R<R>; R = 0 is the same all-big bed
-for every a), one seed. The spec's interleaving rule (protocol step 1: for R < ½ every
+--mixing-ratio R --piston-speed 1mm/s --seed s --json\` (case bi-a<a>-R<R>-s<s>; R = 0 is the
+same all-big bed for every a). The spec's interleaving rule (protocol step 1: for R < ½ every
 ⌊1/R⌋-th disc is small, for R > ½ every ⌊1/(1 − R)⌋-th is big) realizes some R only
 approximately: R = 0.4, 0.5 and 0.6 all make every second disc small (0.5); R = 0.4 and 0.5
-are the same bed, R = 0.6 the other parity. The realized fraction (\`small_fraction\`) is listed, and magopt's ratio is at the
-realized R, the source's fit at the nominal one.
+are the same bed, R = 0.6 the other parity. The realized fraction (\`small_fraction\`) is listed,
+and magopt's ratio is at the realized R, the source's fit at the nominal one. F_max is the
+mean ± sample sd over the seeds run (their count in brackets); magopt's ratio is the ratio of
+the seed means ± its standard error (the two means' standard errors combined); "gap / se" is
+(magopt − source fit) over that standard error (blank unless both points have several seeds).
 
-| a | R | realized R | source fit | magopt | magopt / source | F_max (N) |
-|---|---|---|---|---|---|---|
+| a | R | realized R | source fit | magopt | magopt / source | gap / se | F_max (N) |
+|---|---|---|---|---|---|---|---|
 EOF
 declare -A t45=([0.75]="0.351254 -0.556311 0.320667 0.914147" [0.6]="0.435046 0.343908 0.00168275 5.41306"
   [0.5]="0.328226 0.322588 0.00157644 5.84935")
+# stats CASE-PREFIX: "mean sd n" of F_max over the seeds (empty if none)
+stats() { values "$1" max_piston_force_N | awk '{ s += $1; q += $1 * $1; n++ }
+  END { if (n) printf "%.8g %.8g %d", s / n, (n > 1 ? sqrt((q - s * s / n) / (n - 1)) : 0), n }'; }
 for a in 0.5 0.6 0.75; do
-  f1=$(m bi-a$a-R1 max_piston_force_N %.6g)
+  read -r f1 s1 n1 <<< "$(stats bi-a$a-R1)" || true
   for r in 0 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1; do
     c=bi-a$a-R$r; [ "$r" = 0 ] && c=bi-a0.6-R0
-    f=$(m $c max_piston_force_N %.6g); [ "$f" = – ] && continue
+    f=; read -r f sf nf <<< "$(stats $c)" || true; [ -z "$f" ] && continue
     read -r A l1 B l2 <<< "${t45[$a]}"
-    fit=$(awk -v A=$A -v l1=$l1 -v B=$B -v l2=$l2 -v r=$r 'BEGIN { printf "%.3f", A * exp(l1 * r) + B * exp(l2 * r) }')
-    echo "| $a | $r | $(m $c small_fraction %.3f) | $fit | $(ratio "$f" "$f1") | $(ratio "$(ratio "$f" "$f1")" "$fit") | $(printf %.2f "$f") |"
+    awk -v A=$A -v l1=$l1 -v B=$B -v l2=$l2 -v r=$r -v a=$a -v f=$f -v sf=$sf -v nf=$nf \
+      -v f1="${f1:-}" -v s1="${s1:-}" -v n1="${n1:-}" -v real="$(m $c-s1 small_fraction %.3f)" 'BEGIN {
+      fit = A * exp(l1 * r) + B * exp(l2 * r)
+      if (f1 == "") { q = "–"; qs = "–"; g = "" } else {
+        x = f / f1; q = sprintf("%.3f", x); qs = sprintf("%.3f", x / fit)
+        se = (r == 1) ? 0 : x * sqrt((sf / f) ^ 2 / nf + (s1 / f1) ^ 2 / n1)
+        g = (nf > 1 && n1 > 1 && se > 0) ? sprintf("%+.1f", (x - fit) / se) : ""
+        if (nf > 1 && n1 > 1 && r != 1) q = q sprintf(" ± %.3f", se) }
+      fs = nf > 1 ? sprintf("%.2f ± %.2f", f, sf) : sprintf("%.2f", f)
+      printf "| %s | %s | %s | %.3f | %s | %s | %s | %s (%d) |\n", a, r, real, fit, q, qs, g, fs, nf }'
   done
 done
 cat <<EOF
 
 ### Table 4.6: hexagon regularity R_h at the start (t = 0) and end (t = 1) of compression, R = 0.5
 
-| a | source t = 0 | magopt t = 0 | source t = 1 | magopt t = 1 |
-|---|---|---|---|---|
+magopt: the seed mean of each run's mean R_h ± the seed mean of each run's spread over its
+cells (the source's ± is the spread over cells).
+
+| a | source t = 0 | magopt t = 0 | source t = 1 | magopt t = 1 | seeds |
+|---|---|---|---|---|---|
 EOF
 declare -A t46=([1]="0.96 0.07 0.98 0.05" [0.75]="0.93 0.10 0.92 0.07" [0.6]="0.87 0.13 0.87 0.09"
   [0.5]="0.84 0.12 0.83 0.10")
+# mf CASE-PREFIX METRIC: the seed mean to 2 decimals, "–" if no run
+mf() { local v; v=$(mean "$1" "$2"); if [ -z "$v" ]; then echo –; else printf %.2f "$v"; fi; }
 for a in 1 0.75 0.6 0.5; do
   c=bi-a$a-R0.5; [ "$a" = 1 ] && c=bi-a0.6-R0
   read -r s0 s0d s1 s1d <<< "${t46[$a]}"
-  echo "| $a | $s0 ± $s0d | $(m $c regularity_start %.2f) ± $(m $c regularity_std_start %.2f) | $s1 ± $s1d | $(m $c regularity_max %.2f) ± $(m $c regularity_std_max %.2f) |"
+  echo "| $a | $s0 ± $s0d | $(mf $c regularity_start) ± $(mf $c regularity_std_start) | $s1 ± $s1d | $(mf $c regularity_max) ± $(mf $c regularity_std_max) | $(values $c regularity_max | wc -l) |"
 done
 cat <<EOF
 
 EOF
 if [ -n "$n_bi" ]; then
-  r05=$(ratio "$(m bi-a0.6-R0 max_piston_force_N %.6g)" "$(m bi-a0.5-R1 max_piston_force_N %.6g)")
+  r05=$(ratio "$(mean bi-a0.6-R0 max_piston_force_N)" "$(mean bi-a0.5-R1 max_piston_force_N)")
+  nseeds=$(values bi-a0.5-R1 max_piston_force_N | wc -l)
   cat <<EOF
 
 Trends with R and a agree: F_max(R)/F_max(1) rises with R and its range shrinks as a → 1, and
@@ -368,8 +388,8 @@ bed (R = 1) presses harder relative to the all-big one than in the source (a = 0
 F(0)/F(1) = $r05 against 0.330 from Table 4.5), and R_h at the start of compression is lower
 than the source's for every a. The lower start regularity is likely the same cause as Table 3.1's
 larger D̂₀: magopt's relaxed bed freezes earlier (docs/bed-protocol.md); by maximum compression
-the gap has mostly closed. N = $n_bi and one seed per point: a full-size (N = 400, several seeds)
-check was not run.
+the gap has mostly closed. N = $n_bi; R = 1 at a = 0.5 has $nseeds seed(s), and every row
+gives its own count.
 EOF
 fi
 cat <<EOF
@@ -377,19 +397,19 @@ cat <<EOF
 ### Fig. 4.6, Eqs. (4.30)–(4.32): δ_a¹, closest approach to the piston, R = 0.5 (in D1)
 
 magopt's \`min_piston_distance_m\` is the smallest centre–piston distance over the run (it is
-reached at maximum compression), divided by D1 = 5 mm.
+reached at maximum compression), divided by D1 = 5 mm; mean ± sample sd over the seeds (count).
 
 | a | source δ_a¹ | magopt |
 |---|---|---|
 EOF
 for pair in "0.75 0.96" "0.6 0.88" "0.5 0.81"; do
   read -r a s <<< "$pair"
-  d=$(m bi-a$a-R0.5 min_piston_distance_m %.6g)
-  echo "| $a | $s | $(awk -v d="$d" 'BEGIN { if (d == "–") print "–"; else printf "%.2f", d / 0.005 }') |"
+  echo "| $a | $s | $(values bi-a$a-R0.5 min_piston_distance_m | awk '{ x = $1 / 0.005; t += x; q += x * x; n++ }
+    END { if (!n) { print "–"; exit } if (n == 1) printf "%.2f (1)", t; else printf "%.2f ± %.2f (%d)", t / n, sqrt((q - t * t / n) / (n - 1)), n }') |"
 done
-delta=$(awk -v x="$(m bi-a0.75-R0.5 min_piston_distance_m %.6g)" -v y="$(m bi-a0.6-R0.5 min_piston_distance_m %.6g)" \
-  -v z="$(m bi-a0.5-R0.5 min_piston_distance_m %.6g)" 'BEGIN { if (x == "–" || y == "–" || z == "–") exit
-  print (x > y && y > z) ? "agrees: δ_a falls as a falls, as in Fig. 4.6 (the levels are one seed each)" : "differs: δ_a does not fall monotonically with a" }')
+delta=$(awk -v x="$(mean bi-a0.75-R0.5 min_piston_distance_m)" -v y="$(mean bi-a0.6-R0.5 min_piston_distance_m)" \
+  -v z="$(mean bi-a0.5-R0.5 min_piston_distance_m)" 'BEGIN { if (x == "" || y == "" || z == "") exit
+  print (x > y && y > z) ? "agrees: δ_a falls as a falls, as in Fig. 4.6" : "differs: δ_a does not fall monotonically with a" }')
 if [ -n "$delta" ]; then printf '\nVerdict: %s.\n' "$delta"; fi
 else
   printf '\n## Part II: bi-disperse beds (Table A.1 heights, 1 mm/s)\n\nNot reached by this run (N = 400 planned); the quick report (bed-quick.md) has them at N = 100.\n'

@@ -18,12 +18,12 @@ bin=${MAGOPT:-target/release/magopt}
 [ -x "$bin" ] || cargo build --release --locked
 if [ "$mode" = "--quick" ]; then
   suffix=-quick; n_std=92; table31="92 184"; table52="92 184"; seeds="1 2"
-  radii="6.26 11.26"; n_bi=100; ratios="0 0.5 1"; seeds10=studies/quick/bed-initial-conditions.toml
+  radii="6.26 11.26"; n_bi=100; ratios_bi="1 0 0.5"; seeds_bi=1; seeds10=studies/quick/bed-initial-conditions.toml
 else
   suffix=; n_std=368; table31="92 184 276 368 460 552 644 736"
   table52="368 460 552 644 736"; seeds="1 2 3"
   radii="6.26 7.26 8.26 9.26 10.26 11.26 12.26"; n_bi=400
-  ratios="0 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 1"; seeds10=studies/bed-initial-conditions.toml
+  ratios_bi="1 0 0.5 0.2 0.8 0.9 0.7 0.3 0.1 0.6 0.4"; seeds_bi="1 2 3 4 5"; seeds10=studies/bed-initial-conditions.toml
 fi
 out=results/reproduction/bed-runs$suffix
 mkdir -p "$out"
@@ -84,13 +84,20 @@ for r in 0.25 0.5 0.75; do
   rm -rf "$out/$c/runs" # the run's record (megabytes); $c.json and the tables hold the data
 done
 # Part II: bi-disperse beds at Table A.1's heights (H0 = H, φ_max = 0.34: the bidisperse
-# preset's source heights) and speed V_c = 1 mm/s; R = 0 is the a = 1 bed of Table 4.6
-for a in 0.5 0.6 0.75; do
-  for r in $ratios; do
-    [ "$r" = 0 ] && [ "$a" != 0.6 ] && continue
-    run bed bi-a$a-R$r --preset bidisperse --particles $n_bi --aspect-ratio $a \
-      --mixing-ratio $r --piston-speed 1mm/s
+# preset's source heights) and speed V_c = 1 mm/s; R = 0 is the a = 1 bed of Table 4.6. Seed 1
+# of every case first, then the other seeds ratio by ratio in the order of $ratios_bi (R = 1, the
+# ratios' denominator, first), so an interrupted run leaves whole seed sets for the first ratios
+bi() { # bi SEED RATIO: the case at every a (R = 0 once: the same all-big bed for every a)
+  local a
+  for a in 0.5 0.6 0.75; do
+    [ "$2" = 0 ] && [ "$a" != 0.6 ] && continue
+    run bed bi-a$a-R$2-s$1 --preset bidisperse --particles $n_bi --aspect-ratio $a \
+      --mixing-ratio $2 --piston-speed 1mm/s --seed $1
   done
+}
+for r in $ratios_bi; do bi 1 $r; done
+for r in $ratios_bi; do
+  for s in $seeds_bi; do [ "$s" = 1 ] || bi $s $r; done
 done
 # Fig. 3.3a inset: the force's spread over 10 seeds (5.63 mm/s), from the sweep's series
 if [ ! -s "$out/initial-conditions/series.parquet" ]; then
