@@ -213,3 +213,45 @@ fn an_unreadable_run_file_is_set_aside_and_recomputed() {
     assert!(table(&out, "runs.parquet") == whole, "runs.parquet differs");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_run_saved_by_another_build_of_its_model_is_stale() {
+    let dir = temp_dir("code");
+    let study = dir.join("grid.toml");
+    std::fs::write(&study, GRID).unwrap();
+    let out = dir.join("out");
+    assert_eq!(sweep(&study, &out, &[]).0, 0);
+    let read = |path: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let code = read(&out.join("provenance.json"))["code"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    // one saved run as another build of the align physics would have left it: another
+    // fingerprint, hence another id
+    let saved = std::fs::read_dir(out.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "json"))
+        .unwrap();
+    let mut record = read(&saved);
+    assert_eq!(record["code"], code.as_str(), "a run records its model's fingerprint");
+    record["code"] = "0.0.0+0123456789abcdef".into();
+    record["id"] = "00000000deadbeef".into();
+    std::fs::remove_file(&saved).unwrap();
+    std::fs::write(
+        out.join("runs/00000000deadbeef.json"),
+        serde_json::to_string(&record).unwrap(),
+    )
+    .unwrap();
+    let (rc, stdout, err) = sweep(&study, &out, &["--resume"]);
+    assert_eq!(rc, 0, "{err}");
+    assert!(err.contains("1 saved runs were stale and recomputed"), "{err}");
+    assert!(
+        err.contains(&format!("code 0.0.0+0123456789abcdef is now {code}")),
+        "{err}"
+    );
+    assert!(stdout.contains("1 runs done now"), "{stdout}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -8,6 +8,7 @@ pub mod bayes;
 pub mod design;
 pub mod design_spec;
 pub mod domain;
+pub mod fingerprint;
 pub mod model;
 pub mod multi;
 pub mod objectives;

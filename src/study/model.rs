@@ -137,6 +137,10 @@ pub trait StudyModel: Sync + Sized + 'static {
     type Params: Clone + Send + Sync + std::fmt::Debug + 'static;
     /// Name in study files.
     fn name(&self) -> &'static str;
+    /// Its source directory under `src/models/`, whose code fingerprint its runs record
+    /// ([`code`](Self::code)).
+    const SOURCES: &'static str;
+
     /// Every parameter it accepts, each declared once.
     fn parameters(&self) -> &'static [Param<Self, Self::Params>];
     /// Every scalar metric it reports.
@@ -151,6 +155,11 @@ pub trait StudyModel: Sync + Sized + 'static {
     /// Runs one (parameters, seed). Blow-ups are failed results; an error is only a file the
     /// run could not write into `context.artifacts`.
     fn run(&self, params: &Self::Params, seed: u64, context: &RunContext) -> Result<RunResult>;
+
+    /// The code fingerprint of its physics: recorded with every run and part of its id.
+    fn code(&self) -> String {
+        super::fingerprint::code(Self::SOURCES)
+    }
 
     /// Everything a run with these parameters depends on besides its seed and the code, as
     /// text: the run id hashes it, and resume compares it. The typed parameters hold the

@@ -192,7 +192,7 @@ pub fn optimize<M: StudyModel>(
                 runs.push((
                     RunSpec {
                         index: point * study.replicates + r,
-                        id: run_id(model.name(), &inputs, seed),
+                        id: run_id(model, &inputs, seed),
                         point,
                         replicate: r,
                         seed,

@@ -127,7 +127,7 @@ impl<M: StudyModel> Evaluator<'_, M> {
             let point = first + k;
             for r in 0..study.replicates {
                 let seed = study.seed.wrapping_add(r as u64);
-                let id = run_id(model.name(), inputs, seed);
+                let id = run_id(model, inputs, seed);
                 if let Some(j) = runs.iter().position(|(run, _)| run.id == id) {
                     slot.push(j);
                     continue;

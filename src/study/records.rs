@@ -16,9 +16,6 @@ use crate::{Error, Result};
 /// The magopt version recorded with every result.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-/// The code fingerprint recorded with every run and part of its id: the version and a hash of
-/// every source file that can change what a run computes (see build.rs).
-pub const CODE: &str = concat!(env!("CARGO_PKG_VERSION"), "+", env!("MAGOPT_PHYSICS_HASH"));
 
 /// One finished run: what was run and what it gave.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -30,19 +27,20 @@ pub struct RunRecord {
     pub result: RunResult,
     /// magopt version that ran it.
     pub magopt_version: String,
-    /// Code fingerprint that ran it ([`CODE`]; empty in records written before 0.2).
+    /// Code fingerprint of its model that ran it ([`StudyModel::code`]; empty in records
+    /// written before 0.2).
     #[serde(default)]
     pub code: String,
 }
 
 impl RunRecord {
-    /// A record for a run spec and its result.
-    pub fn new(run: &RunSpec, result: RunResult) -> Self {
+    /// A record for a run spec, its result and the code fingerprint that computed it.
+    pub fn new(run: &RunSpec, result: RunResult, code: String) -> Self {
         Self {
             run: run.clone(),
             result,
             magopt_version: VERSION.to_string(),
-            code: CODE.to_string(),
+            code,
         }
     }
 }
@@ -678,7 +676,7 @@ fn write_run_tables<M: StudyModel>(
 pub fn provenance<M: StudyModel>(model: &M, study: &Study<M>, command: &str) -> serde_json::Value {
     serde_json::json!({
         "magopt_version": VERSION,
-        "code": CODE,
+        "code": model.code(),
         "model": model.name(),
         "study": study.name,
         "command": command,

@@ -73,8 +73,8 @@ pub struct SweepReport {
 
 /// Why a saved run of the same point and seed is not the current run: the code changed, or
 /// the first input that differs.
-fn why_stale(saved: &RunRecord, run: &RunSpec) -> String {
-    if saved.code != records::CODE {
+fn why_stale(saved: &RunRecord, run: &RunSpec, code: &str) -> String {
+    if saved.code != code {
         return format!(
             "code {} is now {}",
             if saved.code.is_empty() {
@@ -82,7 +82,7 @@ fn why_stale(saved: &RunRecord, run: &RunSpec) -> String {
             } else {
                 &saved.code
             },
-            records::CODE
+            code
         );
     }
     let split = |t: &str| -> Vec<String> {
@@ -98,12 +98,14 @@ fn why_stale(saved: &RunRecord, run: &RunSpec) -> String {
 }
 
 /// The runs of a shard that still have to run, and those already saved (placed at their
-/// current position in the grid, which comes from the study, never from the record).
+/// current position in the grid, which comes from the study, never from the record); `code`
+/// is the model's current fingerprint (named when a saved run is stale because of it).
 pub fn pending(
     runs: &[RunSpec],
     shard: Option<Shard>,
     dir: &Path,
     keep_stale: bool,
+    code: &str,
 ) -> Result<(Vec<RunSpec>, Vec<RunRecord>, SweepReport)> {
     let mut report = SweepReport::default();
     let mut todo = Vec::new();
@@ -123,7 +125,7 @@ pub fn pending(
             None => todo.push((*run).clone()),
         }
     }
-    let still = claim_stale(runs, todo, dir, keep_stale, &mut done, &mut report)?;
+    let still = claim_stale(runs, todo, dir, (keep_stale, code), &mut done, &mut report)?;
     Ok((still, done, report))
 }
 
@@ -135,7 +137,7 @@ fn claim_stale(
     runs: &[RunSpec],
     todo: Vec<RunSpec>,
     dir: &Path,
-    keep_stale: bool,
+    (keep_stale, code): (bool, &str),
     done: &mut Vec<RunRecord>,
     report: &mut SweepReport,
 ) -> Result<Vec<RunSpec>> {
@@ -155,7 +157,7 @@ fn claim_stale(
             still.push(run);
             continue;
         };
-        report.stale.push(why_stale(&saved, &run));
+        report.stale.push(why_stale(&saved, &run, code));
         if keep_stale {
             let inputs = saved.run.inputs.clone();
             done.push(RunRecord {
@@ -189,7 +191,7 @@ pub fn load_or_run<M: StudyModel>(
             });
         }
     }
-    let record = RunRecord::new(run, model.run(params, run.seed, context)?);
+    let record = RunRecord::new(run, model.run(params, run.seed, context)?, model.code());
     if let Some(dir) = dir {
         records::save(dir, &record)?;
     }
@@ -261,7 +263,7 @@ pub fn sweep<M: StudyModel>(
     }
     let runs = study.runs(model)?;
     let (todo, mut done, mut report) =
-        pending(&runs, options.shard, &options.out, options.keep_stale)?;
+        pending(&runs, options.shard, &options.out, options.keep_stale, &model.code())?;
     report.skipped = done.len();
     total(todo.len());
     let fresh: Vec<Result<RunRecord>> = todo

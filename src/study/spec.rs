@@ -486,7 +486,7 @@ impl<M: StudyModel> Study<M> {
                 let seed = self.seed.wrapping_add(r as u64);
                 runs.push(RunSpec {
                     index: runs.len(),
-                    id: run_id(model.name(), &inputs, seed),
+                    id: run_id(model, &inputs, seed),
                     point: p,
                     replicate: r,
                     seed,
@@ -499,10 +499,14 @@ impl<M: StudyModel> Study<M> {
     }
 }
 
-/// The id of a run: FNV-1a over the model, the seed, the code fingerprint and the run's
+/// The id of a run: FNV-1a over the model, the seed, its code fingerprint and the run's
 /// resolved inputs.
-pub fn run_id(model: &str, inputs: &str, seed: u64) -> String {
-    let text = format!("{model}|seed={seed}|code={}|{inputs}", super::records::CODE);
+pub fn run_id<M: StudyModel>(model: &M, inputs: &str, seed: u64) -> String {
+    let text = format!(
+        "{}|seed={seed}|code={}|{inputs}",
+        model.name(),
+        model.code()
+    );
     let hash = text.bytes().fold(0xcbf29ce484222325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100000001b3)
     });

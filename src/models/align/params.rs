@@ -88,7 +88,8 @@ pub struct Numerics {
     /// How friction enters the velocities: implicit (default) or the source's explicit Eq. (8).
     pub friction_scheme: FrictionScheme,
     /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
-    /// cells; the result is the same at any thread count). 4000.
+    /// cells; the result is the same at any thread count). 1000 (results/bench/README.md:
+    /// 1.55–1.59× faster alignment at N = 1000–3000 on 2 threads than from 4000).
     pub parallel_from: usize,
     /// How the packing stages move the particles: FIRE (default) or the source's overdamped drop.
     pub settling_scheme: SettlingScheme,
@@ -117,7 +118,7 @@ impl Default for Numerics {
             solver_tolerance: 1e-4,
             max_sweeps: 200,
             friction_scheme: FrictionScheme::Implicit,
-            parallel_from: 4000,
+            parallel_from: 1000,
             settling_scheme: SettlingScheme::Fire,
             settling_force: 1e-3,
             rest_speed: 1e-2,

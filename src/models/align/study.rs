@@ -345,6 +345,7 @@ impl AlignModel {
 
 impl StudyModel for AlignModel {
     type Params = AlignSetup;
+    const SOURCES: &'static str = "align";
 
     fn name(&self) -> &'static str {
         "align"

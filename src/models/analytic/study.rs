@@ -93,6 +93,7 @@ pub const METRICS: &[&str] = &["value", "f1", "f2"];
 
 impl StudyModel for AnalyticModel {
     type Params = AnalyticParams;
+    const SOURCES: &'static str = "analytic";
 
     fn name(&self) -> &'static str {
         "analytic"

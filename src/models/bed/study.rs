@@ -661,6 +661,7 @@ pub fn load_species(path: &str) -> Result<Vec<Species>> {
 
 impl StudyModel for BedModel {
     type Params = BedParams;
+    const SOURCES: &'static str = "bed";
 
     fn name(&self) -> &'static str {
         if self.damper {

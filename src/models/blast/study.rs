@@ -690,6 +690,7 @@ impl BlastModel {
 
 impl StudyModel for BlastModel {
     type Params = BlastParams;
+    const SOURCES: &'static str = "blast";
 
     fn name(&self) -> &'static str {
         "blast"
