@@ -236,7 +236,11 @@ fn a_run_saved_by_another_build_of_its_model_is_stale() {
         .find(|p| p.extension().is_some_and(|x| x == "json"))
         .unwrap();
     let mut record = read(&saved);
-    assert_eq!(record["code"], code.as_str(), "a run records its model's fingerprint");
+    assert_eq!(
+        record["code"],
+        code.as_str(),
+        "a run records its model's fingerprint"
+    );
     record["code"] = "0.0.0+0123456789abcdef".into();
     record["id"] = "00000000deadbeef".into();
     std::fs::remove_file(&saved).unwrap();
@@ -247,7 +251,10 @@ fn a_run_saved_by_another_build_of_its_model_is_stale() {
     .unwrap();
     let (rc, stdout, err) = sweep(&study, &out, &["--resume"]);
     assert_eq!(rc, 0, "{err}");
-    assert!(err.contains("1 saved runs were stale and recomputed"), "{err}");
+    assert!(
+        err.contains("1 saved runs were stale and recomputed"),
+        "{err}"
+    );
     assert!(
         err.contains(&format!("code 0.0.0+0123456789abcdef is now {code}")),
         "{err}"

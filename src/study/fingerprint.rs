@@ -44,13 +44,20 @@ mod tests {
     #[test]
     fn no_model_imports_another() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/models");
-        let models: Vec<String> = MODEL_FINGERPRINTS.iter().map(|(d, _)| d.to_string()).collect();
+        let models: Vec<String> = MODEL_FINGERPRINTS
+            .iter()
+            .map(|(d, _)| d.to_string())
+            .collect();
         for dir in &models {
             for file in rust_files(&root.join(dir)) {
                 let text = std::fs::read_to_string(&file).unwrap();
                 for other in models.iter().filter(|m| *m != dir) {
                     for pattern in [format!("models::{other}"), format!("super::super::{other}")] {
-                        assert!(!text.contains(&pattern), "{} uses {pattern}", file.display());
+                        assert!(
+                            !text.contains(&pattern),
+                            "{} uses {pattern}",
+                            file.display()
+                        );
                     }
                 }
             }

@@ -16,7 +16,6 @@ use crate::{Error, Result};
 /// The magopt version recorded with every result.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-
 /// One finished run: what was run and what it gave.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunRecord {

@@ -262,8 +262,13 @@ pub fn sweep<M: StudyModel>(
         )));
     }
     let runs = study.runs(model)?;
-    let (todo, mut done, mut report) =
-        pending(&runs, options.shard, &options.out, options.keep_stale, &model.code())?;
+    let (todo, mut done, mut report) = pending(
+        &runs,
+        options.shard,
+        &options.out,
+        options.keep_stale,
+        &model.code(),
+    )?;
     report.skipped = done.len();
     total(todo.len());
     let fresh: Vec<Result<RunRecord>> = todo
