@@ -327,7 +327,9 @@ are the same bed, R = 0.6 the other parity. The realized fraction (\`small_fract
 and magopt's ratio is at the realized R, the source's fit at the nominal one. F_max is the
 mean ± sample sd over the seeds run (their count in brackets); magopt's ratio is the ratio of
 the seed means ± its standard error (the two means' standard errors combined); "gap / se" is
-(magopt − source fit) over that standard error (blank unless both points have several seeds).
+(magopt − source fit) over that standard error (blank unless both points have several seeds):
+it asks only whether magopt's seed scatter could explain the gap: the source averages at least
+two runs per point (Fig. 4.7's caption) but gives no scatter for its points or fit parameters.
 
 | a | R | realized R | source fit | magopt | magopt / source | gap / se | F_max (N) |
 |---|---|---|---|---|---|---|---|
