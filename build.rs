@@ -3,7 +3,7 @@
 //! neighbour search, numerics, materials, units, random streams, `src/models/*.rs`). Saved runs
 //! record their model's fingerprint, and resume recomputes runs whose fingerprint no longer
 //! matches; a change to one model leaves the other models' saved runs valid. No model imports
-//! another (test `study::records::tests::no_model_imports_another`).
+//! another (test `study::fingerprint::tests::no_model_imports_another`).
 
 use std::path::{Path, PathBuf};
 

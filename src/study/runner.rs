@@ -125,7 +125,7 @@ pub fn pending(
             None => todo.push((*run).clone()),
         }
     }
-    let still = claim_stale(runs, todo, dir, (keep_stale, code), &mut done, &mut report)?;
+    let still = claim_stale(runs, todo, dir, keep_stale, code, &mut done, &mut report)?;
     Ok((still, done, report))
 }
 
@@ -137,7 +137,8 @@ fn claim_stale(
     runs: &[RunSpec],
     todo: Vec<RunSpec>,
     dir: &Path,
-    (keep_stale, code): (bool, &str),
+    keep_stale: bool,
+    code: &str,
     done: &mut Vec<RunRecord>,
     report: &mut SweepReport,
 ) -> Result<Vec<RunSpec>> {

@@ -89,7 +89,7 @@ pub struct Numerics {
     pub friction_scheme: FrictionScheme,
     /// From this many particles on, the velocity sweeps run in parallel inside a run (coloured
     /// cells; the result is the same at any thread count). 1000 (results/bench/README.md:
-    /// 1.55–1.59× faster alignment at N = 1000–3000 on 2 threads than from 4000).
+    /// the alignment 1.4–1.6× faster at N = 1000–3000 on 2 threads than from 4000).
     pub parallel_from: usize,
     /// How the packing stages move the particles: FIRE (default) or the source's overdamped drop.
     pub settling_scheme: SettlingScheme,
