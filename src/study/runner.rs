@@ -230,7 +230,11 @@ pub fn single<M: StudyModel>(
         artifacts: out,
         snapshots: study.snapshots.as_ref().unwrap_or(&all_formats),
     };
-    let record = load_or_run(model, &run, &params, out, false, &context)?;
+    // On a worker of the pool: the run's parallel loops, called from outside the pool, would
+    // each be handed to it and waited for (a thread wake-up per loop, every step), which at
+    // a few hundred particles costs more than the loop; on a worker they run inline on one
+    // thread and by work stealing on more. The results do not depend on where they run.
+    let record = rayon::scope(|_| load_or_run(model, &run, &params, out, false, &context))?;
     if let Some(dir) = out {
         records::write_results(
             model,
