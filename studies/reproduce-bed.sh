@@ -71,6 +71,14 @@ for n in $table52; do
   run bed svvisc-N$n-s1 --particles $n --seed 1 --neighbors source-verlet --list-radius 11.26 \
     --rebuild-skin 4.13 --friction-model viscous "${std[@]}"
 done
+# ... and with the plate gap E 0.01 mm below and above Table 2.1's 3.1 mm: the plates' normal
+# force (B4) rests on θ = arcsin(E/√(D² + ε²)) − φ ≈ 0.96°, a small difference of two 27° angles
+for n in $table52; do
+  for gap in 3.09 3.11; do
+    run bed svgap$gap-N$n-s1 --particles $n --seed 1 --neighbors source-verlet --list-radius 11.26 \
+      --rebuild-skin 4.13 --gap ${gap}mm "${std[@]}"
+  done
+done
 # Figs. 4.23–4.24: magnetic force vectors and their fluctuations at maximum compression, the
 # standard bi-disperse system (a = 0.6, dry friction) at R = 0.25, 0.5, 0.75 (magopt analyze on
 # the run's snapshot: force_vectors.png, fluctuations.png and the force-chain measures)
