@@ -3,11 +3,10 @@
 
 Usage: python3 scripts/bed-system-size.py DRY_DIR [VISCOUS_DIR]
 DRY_DIR and VISCOUS_DIR are output directories of `magopt sweep studies/bed-system-size.toml`
-and `studies/bed-system-size-viscous.toml`; their runs.parquet is read (needs pyarrow). Prints Markdown: F_max per N (seed mean, seed sd, local exponent to
-the next N), least-squares fits of the seed means (power law in log-log, c*sqrt(N), a*N + b,
+and `studies/bed-system-size-viscous.toml`; their runs.parquet is read (needs pyarrow).
+Prints Markdown: F_max per N (seed mean, seed sd, local exponent to the next N), least-squares fits of the seed means (power law in log-log, c*sqrt(N), a*N + b,
 p*sqrt(N) + q*N) over N = 368-736 and over N >= 368, and the viscous-only comparison.
 """
-import json
 import math
 import os
 import sys
@@ -42,12 +41,17 @@ def rms(residuals):
     return math.sqrt(sum(r * r for r in residuals) / len(residuals))
 
 
-def fits(ns, fs):
-    """Markdown cells: power law, c sqrt(N), a N + b, p sqrt(N) + q N (each with its rms)."""
+def power_law(ns, fs):
+    """(exponent e, ln c) of the least-squares line ln f = e ln n + ln c."""
     x = [math.log(n) for n in ns]
     y = [math.log(f) for f in fs]
+    return solve2(sum(v * v for v in x), sum(x), len(x), sum(u * v for u, v in zip(x, y)), sum(y))
+
+
+def fits(ns, fs):
+    """Markdown cells: power law, c sqrt(N), a N + b, p sqrt(N) + q N (each with its rms)."""
     k = len(ns)
-    e, logc = solve2(sum(v * v for v in x), sum(x), k, sum(u * v for u, v in zip(x, y)), sum(y))
+    e, logc = power_law(ns, fs)
     power = [math.exp(logc) * n**e for n in ns]
     c = sum(math.sqrt(n) * f for n, f in zip(ns, fs)) / sum(ns)
     a, b = solve2(sum(n * n for n in ns), sum(ns), k, sum(n * f for n, f in zip(ns, fs)), sum(fs))
@@ -89,26 +93,21 @@ def main():
         if len(sel) >= 3:
             print(f"| {sel[0]}–{sel[-1]} | " + " | ".join(fits(sel, [stats[n][0] for n in sel])) + " |")
     if len(sys.argv) > 2:
-        visc = forces(sys.argv[2])
+        visc = {n: mean_sd(fs)[0] for n, fs in forces(sys.argv[2]).items()}
         both = [n for n in sorted(visc) if n in stats]
+        excess = [stats[n][0] - visc[n] for n in both]
         print()
         print("| N | " + " | ".join(str(n) for n in both) + " |")
         print("|---|" + "---|" * len(both))
-        print("| F_max, viscous only (N) | " + " | ".join(f"{mean_sd(visc[n])[0]:.2f}" for n in both) + " |")
+        print("| F_max, viscous only (N) | " + " | ".join(f"{visc[n]:.2f}" for n in both) + " |")
         print("| F_max, dry (N), from above | " + " | ".join(f"{stats[n][0]:.2f}" for n in both) + " |")
-        print("| dry − viscous (N) | " + " | ".join(f"{stats[n][0] - mean_sd(visc[n])[0]:.2f}" for n in both) + " |")
-        print("| (dry − viscous) / N (N per disc) | " + " | ".join(f"{(stats[n][0] - mean_sd(visc[n])[0]) / n:.5f}" for n in both) + " |")
+        print("| dry − viscous (N) | " + " | ".join(f"{d:.2f}" for d in excess) + " |")
+        print("| (dry − viscous) / N (N per disc) | " + " | ".join(f"{d / n:.5f}" for d, n in zip(excess, both)) + " |")
         if len(both) >= 2:
-            lx = [math.log(n) for n in both]
-            for label, values in [
-                ("viscous only", [mean_sd(visc[n])[0] for n in both]),
-                ("dry − viscous", [stats[n][0] - mean_sd(visc[n])[0] for n in both]),
-            ]:
-                ly = [math.log(v) for v in values]
-                e, _ = solve2(sum(v * v for v in lx), sum(lx), len(lx), sum(u * v for u, v in zip(lx, ly)), sum(ly))
+            for label, values in [("viscous only", [visc[n] for n in both]), ("dry − viscous", excess)]:
+                e, _ = power_law(both, values)
                 print(f"\nExponent of {label} over N = {both[0]}–{both[-1]}: N^{e:.2f}.", end="")
             print()
-
 
 if __name__ == "__main__":
     main()

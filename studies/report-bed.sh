@@ -267,7 +267,7 @@ if [ -n "$gaps" ]; then
   # the plates' normal force (B4) of equal discs is ∝ sin 2θ / cos(φ + θ)
   read -r g09 g11 < <(awk 'BEGIN { D = 6; e = 3; s = sqrt(D * D + e * e); phi = atan2(e, D)
     for (k = 0; k < 3; k++) { E = 3.09 + 0.01 * k; x = E / s; th = atan2(x, sqrt(1 - x * x)) - phi
-      g[k] = sin(2 * th) / cos(phi + th); t[k] = th }
+      g[k] = sin(2 * th) / cos(phi + th) }
     printf "%.4f %.4f\n", g[0] / g[1], g[2] / g[1] }')
   cat <<EOF
 
