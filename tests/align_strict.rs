@@ -2,9 +2,8 @@
 //! with μ = 0 the rotation of each particle decouples from its contacts, so each DEM sample's
 //! A(t) equals the non-interacting ensemble of the same particles (sizes and axes), integrated
 //! by the same scheme and step, to round-off, whatever the pressure and its mode. With P = 0
-//! and μ > 0 the only contact forces are the particles' true weights (~1e-12 of the contact
-//! force scale), so friction changes A(t) by no more than the ratio of the largest friction
-//! torque the weights allow to the magnetic torque scale.
+//! and μ > 0 friction can act only through normal forces: those stage 3's overlap tolerance
+//! leaves, and the particles' true weights. Without both, μ > 0 gives μ = 0 bit for bit.
 
 use magopt::materials::MaterialDb;
 use magopt::models::align::dem::integrator::time_step;
@@ -85,30 +84,64 @@ fn frictionless_dem_is_the_lone_particle_ensemble_to_round_off() {
     assert!(gap < 1e-13, "Coulomb limit, punch: |ΔA| = {gap:e}");
 }
 
-/// P = 0, μ = 0.5 against μ = 0: not equal to round-off. The difference comes from the contact
-/// forces left by stage 3, whose overlaps relax only down to `overlap_tolerance` δ_tol (forces
-/// ~k δ_tol^{3/2}, far above the true weights): friction bounded by them acts during the first
-/// steps. It shrinks with δ_tol (here 8.2e-5 at 1e-5 and 1.4e-6 at 1e-6) toward the floor the
-/// true weights set.
+/// Largest |A(t)| difference between μ = 0.5 and μ = 0 at P = 0, on one packing, with stage 3's
+/// overlap tolerance δ_tol, the velocity solver's tolerance, and gravity scaled by `g_scale`.
+fn friction_gap_without_pressure(
+    overlap_tolerance: f64,
+    solver_tolerance: f64,
+    g_scale: f64,
+) -> f64 {
+    let mut base = params(0.0, 0.0, PressureMode::ExposedLayer);
+    base.numerics.overlap_tolerance = overlap_tolerance;
+    base.numerics.solver_tolerance = solver_tolerance;
+    base.numerics.max_sweeps = 100_000;
+    base.material.density *= g_scale;
+    let packing = Packing::generate(&base.packing(), 4).unwrap();
+    let frictionless = dem::align(&base, &packing, None);
+    let mut rubbing = base.clone();
+    rubbing.friction = 0.5;
+    rubbing.wall_friction = 0.5;
+    let rubbing = dem::align(&rubbing, &packing, None);
+    frictionless
+        .series
+        .iter()
+        .zip(&rubbing.series)
+        .map(|(a, b)| (a.1 - b.1).abs())
+        .fold(0.0, f64::max)
+}
+
+/// P = 0, μ = 0.5 against μ = 0. Friction needs a normal force, and with P = 0 only two remain:
+/// the contact forces stage 3 leaves (its overlaps relax down to δ_tol, forces ~k δ_tol^{3/2})
+/// and the true weights (~1e-12 of the contact force scale). Each is taken away in turn:
+/// - default numerics (δ_tol 1e-5, solver 1e-4): |ΔA| ≈ 8e-5, shrinking with δ_tol;
+/// - without gravity and with the overlaps relaxed to 1e-14 R_av, no contact carries friction,
+///   every particle turns alone, and μ = 0.5 gives the frictionless A(t) to round-off (measured:
+///   identical bits);
+/// - with true gravity the weights' friction stays: |ΔA| ≈ 8e-10, growing with g (measured:
+///   × 2.4–2.5 per doubling, 0.5 g to 4 g); that is the spec's "no contact forces with P = 0",
+///   which holds only up to the weights.
 #[test]
-fn friction_without_pressure_acts_only_through_the_residual_contact_forces() {
-    let gap = |tolerance: f64| {
-        let mut base = params(0.0, 0.0, PressureMode::ExposedLayer);
-        base.numerics.overlap_tolerance = tolerance;
-        let packing = Packing::generate(&base.packing(), 4).unwrap();
-        let frictionless = dem::align(&base, &packing, None);
-        let mut rubbing = base.clone();
-        rubbing.friction = 0.5;
-        rubbing.wall_friction = 0.5;
-        let rubbing = dem::align(&rubbing, &packing, None);
-        frictionless
-            .series
-            .iter()
-            .zip(&rubbing.series)
-            .map(|(a, b)| (a.1 - b.1).abs())
-            .fold(0.0, f64::max)
-    };
-    let (coarse, fine) = (gap(1e-5), gap(1e-6));
+fn friction_without_pressure_acts_only_through_residual_overlaps_and_weights() {
+    let (coarse, fine) = (
+        friction_gap_without_pressure(1e-5, 1e-4, 1.0),
+        friction_gap_without_pressure(1e-6, 1e-4, 1.0),
+    );
     println!("P = 0: μ = 0.5 against μ = 0: |ΔA| = {coarse:e} (δ_tol 1e-5), {fine:e} (1e-6)");
     assert!(coarse > 10.0 * fine, "{coarse:e} vs {fine:e}");
+
+    let weightless = friction_gap_without_pressure(1e-14, 1e-12, 0.0);
+    println!("no gravity, δ_tol 1e-14: |ΔA| = {weightless:e}");
+    assert!(weightless < 1e-14, "friction acted without normal forces: {weightless:e}");
+
+    let weights: Vec<f64> = [1.0, 2.0]
+        .iter()
+        .map(|&g| friction_gap_without_pressure(1e-12, 1e-10, g))
+        .collect();
+    println!(
+        "true gravity × 1, × 2: |ΔA| = {:e}, {:e}",
+        weights[0], weights[1]
+    );
+    assert!(weights[0] > 0.0 && weights[0] < 1e-8, "{:e}", weights[0]);
+    let growth = weights[1] / weights[0];
+    assert!((1.5..3.0).contains(&growth), "doubling g: × {growth}");
 }
