@@ -131,7 +131,10 @@ fn friction_without_pressure_acts_only_through_residual_overlaps_and_weights() {
 
     let weightless = friction_gap_without_pressure(1e-14, 1e-12, 0.0);
     println!("no gravity, δ_tol 1e-14: |ΔA| = {weightless:e}");
-    assert!(weightless < 1e-14, "friction acted without normal forces: {weightless:e}");
+    assert!(
+        weightless < 1e-14,
+        "friction acted without normal forces: {weightless:e}"
+    );
 
     let weights: Vec<f64> = [1.0, 2.0]
         .iter()
