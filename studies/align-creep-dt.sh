@@ -13,9 +13,10 @@ run() { # name friction pressure rotation_step solver_tolerance
   local d="$out/$1-rs$4-tol$5"
   [ -s "$d/series.parquet" ] && return 0
   rm -rf "$d"
+  # exit code 3 (target 0.99 not reached within 400 s) is the expected outcome here
   "$bin" align --particles 150 --seed 1 --field 31 --friction "$2" --pressure "$3" \
     --friction-scheme coulomb-limit --solver-tolerance "$5" --max-sweeps 20000 \
-    --rotation-step "$4" --target 0.99 --max-time 400s --out "$d" > /dev/null
+    --rotation-step "$4" --target 0.99 --max-time 400s --out "$d" > /dev/null || [ $? -eq 3 ]
   rm -rf "$d/snapshots" "$d/runs"   # the tables hold the run; frames are not needed here
   echo "$(date +%T) $d"
 }
