@@ -47,14 +47,14 @@ def main(directory):
 
     lists = rows(directory, "lists")
     cutoffs = sorted({r["cutoff"] for r in lists})
-    pick = lambda n, rc, kind, rv: next(
+    pick = lambda n, rc: next(
         (r for r in lists if int(r["particles"]) == n and r["cutoff"] == rc
-         and r["neighbors"] == kind and r["list_radius"] == rv), None)
+         and r["neighbors"] == "verlet" and r["list_radius"] == 11.26), None)
     print()
     print("| N | " + " | ".join(f"r_c = {rc:g} D: F_max, work" for rc in cutoffs) + " |")
     print("|---|" + "---|" * len(cutoffs))
     for n in sizes:
-        cells = [pick(n, rc, "verlet", 11.26) for rc in cutoffs]
+        cells = [pick(n, rc) for rc in cutoffs]
         print(f"| {n} | " + " | ".join(errors(c, exact[n]) if c else "–" for c in cells) + " |")
 
     tree = rows(directory, "tree")
@@ -101,7 +101,7 @@ def main(directory):
         out = []
         for _, study, keep in columns:
             run = next((r for r in studies[study] if int(r["particles"]) == n
-                        and keep(r) and r.get("cutoff", 7.13) in (7.13, None)), None)
+                        and keep(r) and r["cutoff"] == 7.13), None)
             out.append(f"{run['wall_time_s'] / exact[n]['wall_time_s']:.2f}" if run else "–")
         print(f"| {n} | " + " | ".join(out) + " |")
 

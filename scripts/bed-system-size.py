@@ -4,7 +4,8 @@
 Usage: python3 scripts/bed-system-size.py DRY_DIR [VISCOUS_DIR]
 DRY_DIR and VISCOUS_DIR are output directories of `magopt sweep studies/bed-system-size.toml`
 and `studies/bed-system-size-viscous.toml`; their runs.parquet is read (needs pyarrow).
-Prints Markdown: F_max per N (seed mean, seed sd, local exponent to the next N), least-squares fits of the seed means (power law in log-log, c*sqrt(N), a*N + b,
+Prints Markdown: F_max per N (seed mean, seed sd, local exponent to the next N),
+least-squares fits of the seed means (power law in log-log, c*sqrt(N), a*N + b,
 p*sqrt(N) + q*N) over N = 368-736 and over N >= 368, and the viscous-only comparison.
 """
 import math
@@ -108,6 +109,7 @@ def main():
                 e, _ = power_law(both, values)
                 print(f"\nExponent of {label} over N = {both[0]}–{both[-1]}: N^{e:.2f}.", end="")
             print()
+
 
 if __name__ == "__main__":
     main()
