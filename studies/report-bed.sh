@@ -575,7 +575,8 @@ cat <<EOF
 ## Run times of this report's cases
 
 Wall time of every run (2 cores shared with other jobs; load average 8–11 during the full run of
-this session, so these are upper bounds), its steps and status:
+this session; later background runs were at times paused with SIGSTOP while benchmarks ran, which
+counts as wall time: so these are upper bounds), its steps and status:
 
 | case | wall (s) | steps | status |
 |---|---|---|---|
