@@ -10,10 +10,11 @@
 #                              two cores (2 on two full cores; less where the cores share caches,
 #                              memory bandwidth or, on a VM, a physical core),
 #   speed-up = t1 / t2         what magopt's parallel loops get,
-#   share    = speed-up / ceiling.
+#   share    = speed-up / ceiling = t_pair / (2 t2).
 # A speed-up below 1.8 with a ceiling near it is the machine's limit, not the code's. Give it a
 # quiet machine: anything else running lowers both figures. Exit codes: 0, or 1 on a failed run.
 set -euo pipefail
+shopt -s inherit_errexit   # a failed run inside $(…) stops the script too
 
 bin=${1:-target/release/magopt}
 repeats=${2:-2}
@@ -32,7 +33,8 @@ timed() {
     local start end
     start=$(date +%s.%N)
     # exit code 3 (run ended before its target) is a finished run here
-    RAYON_NUM_THREADS=$threads "$bin" "$@" > /dev/null || [ $? -eq 3 ]
+    RAYON_NUM_THREADS=$threads "$bin" "$@" > /dev/null || [ $? -eq 3 ] ||
+        { echo "failed: $bin $*" >&2; return 1; }
     end=$(date +%s.%N)
     echo "$end - $start" | bc -l
 }
@@ -45,7 +47,9 @@ timed_pair() {
     timed 1 "$@" > "$a" &
     local pa=$!
     timed 1 "$@" > "$b" &
-    wait $pa $!
+    local pb=$!
+    wait $pa
+    wait $pb
     echo "($(cat "$a") + $(cat "$b")) / 2" | bc -l
     rm -f "$a" "$b"
 }
@@ -63,6 +67,6 @@ for w in "${workloads[@]}"; do
         t2=$(timed 2 "${args[@]}")
         printf '| %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n' "$name" "$r" "$t1" "$tp" "$t2" \
             "$(echo "2 * $t1 / $tp" | bc -l)" "$(echo "$t1 / $t2" | bc -l)" \
-            "$(echo "($t1 / $t2) / (2 * $t1 / $tp)" | bc -l)"
+            "$(echo "$tp / (2 * $t2)" | bc -l)"
     done
 done
