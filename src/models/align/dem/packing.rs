@@ -70,9 +70,18 @@ impl Packing {
         let side = (solid / 0.6)
             .cbrt()
             .max(2.0 * radius.iter().cloned().fold(0.0, f64::max));
+        let mut position = sample_positions(&radius, side, seed);
+        let mut orientation = sample_orientations(radius.len(), seed);
+        let mut radius = radius;
+        if radius.len() >= params.numerics.cell_order_from {
+            let order = cell_order(&position, 2.0);
+            position = permuted(&position, &order);
+            orientation = permuted(&orientation, &order);
+            radius = permuted(&radius, &order);
+        }
         let mut packing = Self {
-            position: sample_positions(&radius, side, seed),
-            orientation: sample_orientations(radius.len(), seed),
+            position,
+            orientation,
             radius,
             container: Container {
                 lx: side,
@@ -468,6 +477,20 @@ fn sample_positions(radius: &[f64], side: f64, seed: u64) -> Vec<Vector3<f64>> {
         .collect()
 }
 
+/// The indices of `position` sorted by the cell of side `cell` they lie in (z slowest, then y,
+/// then x; ties in index order): neighbours in space become neighbours in memory.
+fn cell_order(position: &[Vector3<f64>], cell: f64) -> Vec<usize> {
+    let key = |p: &Vector3<f64>| [p.z, p.y, p.x].map(|c| (c / cell).floor() as i64);
+    let mut order: Vec<usize> = (0..position.len()).collect();
+    order.sort_by_key(|&i| key(&position[i]));
+    order
+}
+
+/// `values` in the order `order` (a permutation of its indices).
+fn permuted<T: Copy>(values: &[T], order: &[usize]) -> Vec<T> {
+    order.iter().map(|&i| values[i]).collect()
+}
+
 /// Uniformly random rotations (Shoemake's method), hence isotropic easy axes.
 fn sample_orientations(n: usize, seed: u64) -> Vec<UnitQuaternion<f64>> {
     let mut rng = run_stream(seed, Purpose::Orientations);
@@ -484,4 +507,23 @@ fn sample_orientations(n: usize, seed: u64) -> Vec<UnitQuaternion<f64>> {
             ))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cell_order_is_a_permutation_sorted_by_cell() {
+        let position = sample_positions(&[0.5; 500], 10.0, 7);
+        let order = cell_order(&position, 2.0);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..500).collect::<Vec<_>>());
+        let cell = |i: usize| [2, 1, 0].map(|a| (position[i][a] / 2.0).floor() as i64);
+        assert!(order.windows(2).all(|w| cell(w[0]) <= cell(w[1])));
+        assert!(order
+            .windows(2)
+            .all(|w| cell(w[0]) < cell(w[1]) || w[0] < w[1]));
+    }
 }
