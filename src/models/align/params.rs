@@ -112,9 +112,9 @@ pub struct Numerics {
     /// cells one mean diameter wide) before it moves, so that neighbours lie near each other
     /// in memory. Radii, centres and orientations are drawn independently, so the renumbering
     /// leaves the ensemble of packings the same; a run's bits change (summation order). A
-    /// settling step 1.2–1.3× and an alignment step 1.1–1.5× faster at N = 1e4, the alignment
-    /// step 2× at 1e5 (results/bench/README.md, "Particle order"). 10 000: every shipped
-    /// result (N ≤ 2000) keeps its packings.
+    /// settling step 1.0–1.3× and an alignment step 1.1–1.5× faster at N = 1e4, 1.25× and
+    /// 1.18× at 3e4 on 2 threads (results/bench/README.md, "Particle order"). 10 000: every
+    /// shipped result (N ≤ 2000) keeps its packings.
     pub cell_order_from: usize,
 }
 

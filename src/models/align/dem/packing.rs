@@ -62,34 +62,7 @@ impl Packing {
         params: &PackingParams,
         seed: u64,
     ) -> Result<(Self, [ContactWork; 3]), String> {
-        let radius = sample_radii(params, seed);
-        let solid: f64 = radius
-            .iter()
-            .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
-            .sum();
-        let side = (solid / 0.6)
-            .cbrt()
-            .max(2.0 * radius.iter().cloned().fold(0.0, f64::max));
-        let mut position = sample_positions(&radius, side, seed);
-        let mut orientation = sample_orientations(radius.len(), seed);
-        let mut radius = radius;
-        if radius.len() >= params.numerics.cell_order_from {
-            let order = cell_order(&position, 2.0);
-            position = permuted(&position, &order);
-            orientation = permuted(&orientation, &order);
-            radius = permuted(&radius, &order);
-        }
-        let mut packing = Self {
-            position,
-            orientation,
-            radius,
-            container: Container {
-                lx: side,
-                ly: side,
-                top: Some(3.0 * side),
-            },
-            steps: [0; 3],
-        };
+        let mut packing = random_start(params, seed);
         let law = ContactLaw {
             effective_modulus: 1.0 / (2.0 * (1.0 - params.poisson_ratio.powi(2))),
             friction: 0.0,
@@ -477,6 +450,40 @@ fn sample_positions(radius: &[f64], side: f64, seed: u64) -> Vec<Vector3<f64>> {
         .collect()
 }
 
+/// Stage 1: radii, orientations and centres in the initial box (the die's cross-section, 3
+/// sides high), numbered in cell order from `cell_order_from` particles on.
+fn random_start(params: &PackingParams, seed: u64) -> Packing {
+    let radius = sample_radii(params, seed);
+    let solid: f64 = radius
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .sum();
+    let side = (solid / 0.6)
+        .cbrt()
+        .max(2.0 * radius.iter().cloned().fold(0.0, f64::max));
+    let position = sample_positions(&radius, side, seed);
+    let orientation = sample_orientations(radius.len(), seed);
+    let mut start = Packing {
+        radius,
+        position,
+        orientation,
+        container: Container {
+            lx: side,
+            ly: side,
+            top: Some(3.0 * side),
+        },
+        steps: [0; 3],
+    };
+    if start.radius.len() >= params.numerics.cell_order_from {
+        // cells one mean diameter (2 R_av) wide
+        let order = cell_order(&start.position, 2.0);
+        start.radius = permuted(&start.radius, &order);
+        start.position = permuted(&start.position, &order);
+        start.orientation = permuted(&start.orientation, &order);
+    }
+    start
+}
+
 /// The indices of `position` sorted by the cell of side `cell` they lie in (z slowest, then y,
 /// then x; ties in index order): neighbours in space become neighbours in memory.
 fn cell_order(position: &[Vector3<f64>], cell: f64) -> Vec<usize> {
@@ -525,5 +532,40 @@ mod tests {
         assert!(order
             .windows(2)
             .all(|w| cell(w[0]) < cell(w[1]) || w[0] < w[1]));
+    }
+
+    /// The ordered start is the drawn start relabelled: every particle keeps its own radius,
+    /// centre and orientation.
+    #[test]
+    fn cell_ordered_start_is_the_drawn_start_relabelled() {
+        let mut params = crate::models::align::AlignParams::paper_defaults(
+            crate::materials::MaterialDb::builtin()
+                .get("srfe12o19")
+                .unwrap()
+                .clone(),
+            0.0,
+        )
+        .packing();
+        params.particles = 2000;
+        let mut start = |cell_order_from: usize| {
+            params.numerics.cell_order_from = cell_order_from;
+            let start = random_start(&params, 3);
+            let particles: Vec<[f64; 8]> = (0..start.radius.len())
+                .map(|i| {
+                    let (p, q) = (start.position[i], start.orientation[i].coords);
+                    [start.radius[i], p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+                })
+                .collect();
+            (particles, start.container.lx)
+        };
+        let (drawn, side) = start(usize::MAX);
+        let (ordered, ordered_side) = start(0);
+        assert_eq!(side, ordered_side);
+        assert_ne!(drawn, ordered, "the numbering changed");
+        let sorted = |mut v: Vec<[f64; 8]>| {
+            v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            v
+        };
+        assert_eq!(sorted(drawn), sorted(ordered));
     }
 }
