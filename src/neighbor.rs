@@ -95,15 +95,15 @@ impl<const D: usize> NeighborList<D> {
     pub fn build(&mut self, positions: &[SVector<f64, D>], radii: &[f64]) {
         let n = positions.len();
         let r_max = radii.iter().cloned().fold(0.0, f64::max);
-        let grid = CellGrid::new(positions, 2.0 * r_max + self.skin);
+        let grid = CellGrid::new(positions, radii, 2.0 * r_max + self.skin);
         let skin = self.skin;
         let block = |range: Range<usize>| {
             let (mut found, mut counts) = (Vec::new(), Vec::with_capacity(range.len()));
             for i in range {
                 let start = found.len();
-                grid.for_each_near(&positions[i], |j| {
-                    let cutoff = radii[i] + radii[j] + skin;
-                    if j != i && (positions[j] - positions[i]).norm_squared() < cutoff * cutoff {
+                grid.for_each_near(&positions[i], |j, q, r_j| {
+                    let cutoff = radii[i] + r_j + skin;
+                    if j != i && (q - positions[i]).norm_squared() < cutoff * cutoff {
                         found.push(j as u32);
                     }
                 });
@@ -144,10 +144,12 @@ struct CellGrid<const D: usize> {
     dims: [usize; D],
     start: Vec<usize>,
     members: Vec<usize>,
+    /// Each member's position and radius, in member order (the search reads them in runs).
+    packed: Vec<(SVector<f64, D>, f64)>,
 }
 
 impl<const D: usize> CellGrid<D> {
-    fn new(positions: &[SVector<f64, D>], cell: f64) -> Self {
+    fn new(positions: &[SVector<f64, D>], radii: &[f64], cell: f64) -> Self {
         let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
         let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
         for p in positions {
@@ -178,6 +180,7 @@ impl<const D: usize> CellGrid<D> {
             dims,
             start: vec![0; dims.iter().product::<usize>() + 1],
             members: vec![0; positions.len()],
+            packed: Vec::with_capacity(positions.len()),
         };
         let index: Vec<usize> = positions
             .iter()
@@ -194,6 +197,8 @@ impl<const D: usize> CellGrid<D> {
             grid.members[fill[c]] = i;
             fill[c] += 1;
         }
+        grid.packed
+            .extend(grid.members.iter().map(|&i| (positions[i], radii[i])));
         grid
     }
 
@@ -209,21 +214,31 @@ impl<const D: usize> CellGrid<D> {
         (0..D).rev().fold(0, |acc, a| acc * self.dims[a] + c[a])
     }
 
-    /// Visits the members of the 3^D cells around the cell of `p`.
-    fn for_each_near(&self, p: &SVector<f64, D>, mut visit: impl FnMut(usize)) {
+    /// Visits the members of the 3^D cells around the cell of `p`, a run of cells along
+    /// axis 0 at a time (their members are contiguous).
+    fn for_each_near(
+        &self,
+        p: &SVector<f64, D>,
+        mut visit: impl FnMut(usize, &SVector<f64, D>, f64),
+    ) {
         let centre = self.coords(p);
         let lo: [usize; D] = std::array::from_fn(|a| centre[a].saturating_sub(1));
         let hi: [usize; D] = std::array::from_fn(|a| (centre[a] + 1).min(self.dims[a] - 1));
         let mut c = lo;
         loop {
-            let cell = self.flat(c);
-            for &j in &self.members[self.start[cell]..self.start[cell + 1]] {
-                visit(j);
+            let first = self.flat(c);
+            let run = first..first + hi[0] - lo[0] + 1;
+            let members = self.start[run.start]..self.start[run.end];
+            for (&j, (q, r)) in self.members[members.clone()]
+                .iter()
+                .zip(&self.packed[members])
+            {
+                visit(j, q, *r);
             }
-            // odometer step over the box lo..=hi
-            let mut a = 0;
+            // odometer step over the box lo..=hi, axes 1.. (axis 0 is the run)
+            let mut a = 1;
             loop {
-                if a == D {
+                if a >= D {
                     return;
                 }
                 if c[a] < hi[a] {
