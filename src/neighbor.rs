@@ -204,8 +204,10 @@ impl<const D: usize> CellGrid<D> {
 
     fn coords(&self, p: &SVector<f64, D>) -> [usize; D] {
         std::array::from_fn(|a| {
-            let c = ((p[a] - self.origin[a]) / self.cell).floor();
-            (c.max(0.0) as usize).min(self.dims[a] - 1)
+            // truncation is the floor of the clamped (non-negative) offset, without the libm
+            // call `floor` is on x86-64's baseline (no SSE4.1 rounding instruction)
+            let c = ((p[a] - self.origin[a]) / self.cell).max(0.0);
+            (c as usize).min(self.dims[a] - 1)
         })
     }
 
