@@ -1,7 +1,7 @@
 //! Times the neighbour-list build (cell grid and Verlet list, `magopt::neighbor`) on N spheres
-//! of radius 0.9–1.1 on a jittered cubic lattice of spacing 1.75 (packing fraction ≈ 0.78 of
-//! the lattice cell, ~7 partners within R_i + R_j + skin): the build the packing stages of
-//! `align` repeat every ~25 FIRE steps.
+//! of radius 0.9–1.1 with centres on a cubic lattice of spacing 1.75, each jittered by up to
+//! 0.3 per axis (~7 partners within R_i + R_j + skin, about a settled bed's count): the build
+//! the packing stages of `align` repeat every ~25 FIRE steps.
 //! `RAYON_NUM_THREADS=1 cargo run --release --example neighbor_build -- [particles] [builds]`
 
 use magopt::neighbor::NeighborList;
