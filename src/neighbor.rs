@@ -143,9 +143,9 @@ struct CellGrid<const D: usize> {
     cell: f64,
     dims: [usize; D],
     start: Vec<usize>,
-    members: Vec<usize>,
-    /// Each member's position and radius, in member order (the search reads them in runs).
-    packed: Vec<(SVector<f64, D>, f64)>,
+    /// Each cell's points in turn: index, position and radius (the search reads them in runs,
+    /// without going back to the input arrays).
+    members: Vec<(usize, SVector<f64, D>, f64)>,
 }
 
 impl<const D: usize> CellGrid<D> {
@@ -179,8 +179,7 @@ impl<const D: usize> CellGrid<D> {
             cell,
             dims,
             start: vec![0; dims.iter().product::<usize>() + 1],
-            members: vec![0; positions.len()],
-            packed: Vec::with_capacity(positions.len()),
+            members: vec![(0, SVector::zeros(), 0.0); positions.len()],
         };
         let index: Vec<usize> = positions
             .iter()
@@ -194,11 +193,9 @@ impl<const D: usize> CellGrid<D> {
         }
         let mut fill = grid.start.clone();
         for (i, &c) in index.iter().enumerate() {
-            grid.members[fill[c]] = i;
+            grid.members[fill[c]] = (i, positions[i], radii[i]);
             fill[c] += 1;
         }
-        grid.packed
-            .extend(grid.members.iter().map(|&i| (positions[i], radii[i])));
         grid
     }
 
@@ -230,12 +227,8 @@ impl<const D: usize> CellGrid<D> {
         loop {
             let first = self.flat(c);
             let run = first..first + hi[0] - lo[0] + 1;
-            let members = self.start[run.start]..self.start[run.end];
-            for (&j, (q, r)) in self.members[members.clone()]
-                .iter()
-                .zip(&self.packed[members])
-            {
-                visit(j, q, *r);
+            for (j, q, r) in &self.members[self.start[run.start]..self.start[run.end]] {
+                visit(*j, q, *r);
             }
             // odometer step over the box lo..=hi, axes 1.. (axis 0 is the run)
             let mut a = 1;
