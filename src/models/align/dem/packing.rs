@@ -13,6 +13,11 @@
 //!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
 //!   the largest is below `overlap_tolerance`.
 //!
+//! FIRE's time step is capped at 0.3/√k_max in every stage, except settling from
+//! `settling_step_from` particles on, which uses `settling_step`: the tail of settling is
+//! limited by this cap, and the packings agree within the seed-to-seed spread
+//! (results/bench/README.md, "A longer FIRE step for settling").
+//!
 //! `settling_scheme = source-dropped` replaces FIRE by the source's own dynamics (§2.1, §2.3,
 //! §3): the spheres move overdamped (γ v = F, Heun's method) in all three stages and are
 //! "dropped" by a force proportional to their mass (R³, scaled so that its mean is the
@@ -34,6 +39,10 @@ const MAX_MOVE: f64 = 0.05;
 const SKIN: f64 = 0.3;
 /// Step cap per packing stage (reported as a failure if hit).
 const MAX_STEPS: usize = 2_000_000;
+/// FIRE's time-step cap in units of 1/√k_max (k_max: the largest summed contact stiffness of a
+/// particle, unit masses) in overlap removal and relaxation, and in settling below
+/// `Numerics::settling_step_from` particles.
+const FIRE_STEP: f64 = 0.3;
 
 /// A settled packing in reduced units (length R_av).
 #[derive(Debug, Clone)]
@@ -73,12 +82,28 @@ impl Packing {
         let n = &params.numerics;
         let settling = Settling::new(n.settling_scheme, &packing.radius);
         let mut work = [ContactWork::default(); 3];
-        (packing.steps[0], work[0]) =
-            packing.flow(&law, Repulsion::Harmonic, &settling, 0.0, |s| {
-                s.max_overlap < n.overlap_tolerance
-            })?;
+        let relax = Stage {
+            repulsion: Repulsion::Hertz,
+            down_force: 0.0,
+            fire_step: FIRE_STEP,
+        };
+        let overlaps_gone = |s: &FlowStatus| s.max_overlap < n.overlap_tolerance;
+        let remove = Stage {
+            repulsion: Repulsion::Harmonic,
+            ..relax
+        };
+        (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, overlaps_gone)?;
         let f = n.settling_force;
-        (packing.steps[1], work[1]) = packing.flow(&law, Repulsion::Hertz, &settling, f, |s| {
+        let settle = Stage {
+            down_force: f,
+            fire_step: if packing.radius.len() >= n.settling_step_from {
+                n.settling_step
+            } else {
+                FIRE_STEP
+            },
+            ..relax
+        };
+        (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, |s| {
             let speed = match n.rest_measure {
                 RestMeasure::Max => s.max_force,
                 RestMeasure::Rms => s.rms_force,
@@ -86,10 +111,7 @@ impl Packing {
             s.steps > 10 && speed < n.rest_speed * f
         })?;
         packing.container.top = None;
-        (packing.steps[2], work[2]) =
-            packing.flow(&law, Repulsion::Hertz, &settling, 0.0, |s| {
-                s.max_overlap < n.overlap_tolerance
-            })?;
+        (packing.steps[2], work[2]) = packing.flow(&law, &settling, relax, overlaps_gone)?;
         Ok((packing, work))
     }
 
@@ -103,16 +125,15 @@ impl Packing {
     fn flow(
         &mut self,
         law: &ContactLaw,
-        repulsion: Repulsion,
         settling: &Settling,
-        down_force: f64,
+        stage: Stage,
         done: impl Fn(&FlowStatus) -> bool,
     ) -> Result<(usize, ContactWork), String> {
         let n = self.radius.len();
         let mut list = NeighborList::new(SKIN);
         let mut force = vec![(Vector3::zeros(), 0.0, 0.0, 0); n];
         let mut stepper = match settling.scheme {
-            SettlingScheme::Fire => Stepper::Fire(Fire::new(n)),
+            SettlingScheme::Fire => Stepper::Fire(Fire::new(n, stage.fire_step)),
             SettlingScheme::SourceDropped => Stepper::Heun {
                 trial: vec![Vector3::zeros(); n],
                 trial_force: force.clone(),
@@ -121,9 +142,9 @@ impl Packing {
         let mut work = ContactWork::default();
         let loads = Loads {
             law,
-            repulsion,
+            repulsion: stage.repulsion,
             settling,
-            down_force,
+            down_force: stage.down_force,
             radius: &self.radius,
         };
         for step in 0..MAX_STEPS {
@@ -195,6 +216,16 @@ impl Settling {
         };
         Self { scheme, share }
     }
+}
+
+/// What one packing stage applies and how far FIRE may step.
+#[derive(Clone, Copy)]
+struct Stage {
+    repulsion: Repulsion,
+    /// Downward force per particle (its mean with the source's R³ shares), reduced units.
+    down_force: f64,
+    /// FIRE's step cap in units of 1/√k_max.
+    fire_step: f64,
 }
 
 /// The stage's force law: contacts (in `repulsion`) plus the downward force.
@@ -301,23 +332,27 @@ impl ContactWork {
 
 /// FIRE, the fast inertial relaxation engine (Bitzek et al., PRL 97, 170201, 2006), with unit
 /// masses and its standard constants. The step is capped by the stiffest particle
-/// (dt ≤ 0.3/√k_max, well inside the explicit limit 2/√k) and by `MAX_MOVE`.
+/// (dt ≤ `max_step`/√k_max, inside the explicit limit: by Gershgorin the largest frequency is
+/// at most √(2 k_max), so the step is stable below √2/√k_max) and by `MAX_MOVE`.
 struct Fire {
     velocity: Vec<Vector3<f64>>,
     dt: f64,
     alpha: f64,
     downhill: usize,
+    /// The step cap in units of 1/√k_max.
+    max_step: f64,
 }
 
 impl Fire {
     const ALPHA0: f64 = 0.1;
 
-    fn new(n: usize) -> Self {
+    fn new(n: usize, max_step: f64) -> Self {
         Self {
             velocity: vec![Vector3::zeros(); n],
             dt: 0.01,
             alpha: Self::ALPHA0,
             downhill: 0,
+            max_step,
         }
     }
 
@@ -330,7 +365,7 @@ impl Fire {
     ) {
         let [power, v_squared, f_squared] = fire_sums(&self.velocity, force);
         let (v_norm, f_norm) = (v_squared.sqrt(), f_squared.sqrt());
-        let dt_max = (0.3 / max_stiffness.sqrt()).min(10.0);
+        let dt_max = (self.max_step / max_stiffness.sqrt()).min(10.0);
         if power > 0.0 {
             let mix = self.alpha * v_norm / f_norm.max(f64::MIN_POSITIVE);
             let alpha = self.alpha;
