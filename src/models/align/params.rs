@@ -119,11 +119,10 @@ pub struct Numerics {
     /// FIRE's time-step cap in the settling stage, in units of 1/√k_max (k_max: the largest
     /// summed contact stiffness of a particle; stable below √2), from `settling_step_from`
     /// particles on; smaller beds and the other packing stages use 0.3. A numerical device
-    /// of the path to rest. 1.0: at N = 1e4 settling ends
-    /// in 2.5× fewer FIRE steps. Over 16 paired seeds the loaded coordination, the packing
-    /// fraction and the sticking fraction differ by less than one seed-to-seed sd, and
-    /// τ_0.95 is 0.28 % higher, under half of it (results/bench/README.md, "A longer FIRE
-    /// step for settling").
+    /// of the path to rest. 1.0: at N = 1e4 settling ends in 2.5× fewer FIRE steps. Over 16
+    /// paired seeds the loaded coordination, the packing fraction and the sticking fraction
+    /// differ by less than one seed-to-seed sd, and τ_0.95 is 0.28 % higher, under half of
+    /// it (results/bench/README.md, "A longer FIRE step for settling").
     pub settling_step: f64,
     /// From this many particles on, settling uses `settling_step`. 10 000: every shipped
     /// result (N ≤ 2000) keeps its packings.
@@ -323,5 +322,24 @@ impl Scales {
     /// Stress unit E, Pa (force / length²).
     pub fn stress(&self) -> f64 {
         self.force / (self.length * self.length)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::MaterialDb;
+
+    /// FIRE's settling step must lie in its stable range (0, √2); the error names it.
+    #[test]
+    fn a_settling_step_outside_the_stable_range_is_refused() {
+        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
+        let mut params = AlignParams::paper_defaults(material, 0.0);
+        assert!(params.validate().is_ok());
+        for bad in [0.0, -1.0, 1.5, f64::NAN] {
+            params.numerics.settling_step = bad;
+            let error = params.validate().unwrap_err().to_string();
+            assert!(error.contains("settling step"), "{bad}: {error}");
+        }
     }
 }
