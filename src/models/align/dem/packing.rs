@@ -13,10 +13,12 @@
 //!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
 //!   the largest is below `overlap_tolerance`.
 //!
-//! FIRE's time step is capped at 0.3/√k_max in every stage, except settling from
-//! `settling_step_from` particles on, which uses `settling_step`: the tail of settling is
-//! limited by this cap, and the packings agree within the seed-to-seed spread
-//! (results/bench/README.md, "A longer FIRE step for settling").
+//! FIRE's time step is capped at 0.3/√k_max in every stage, with unit masses, except settling
+//! from `large_bed_from` particles on, which uses `settling_step` and masses proportional to
+//! each particle's summed contact stiffness (floored at `settling_mass_floor` × k_max): the
+//! tail of settling is limited by the cap and by the softly loaded particles, and the
+//! packings agree within the seed-to-seed spread (results/bench/README.md, "A longer FIRE
+//! step for settling", "Stiffness-scaled masses for settling").
 //!
 //! `settling_scheme = source-dropped` replaces FIRE by the source's own dynamics (§2.1, §2.3,
 //! §3): the spheres move overdamped (γ v = F, Heun's method) in all three stages and are
@@ -41,7 +43,7 @@ const SKIN: f64 = 0.3;
 const MAX_STEPS: usize = 2_000_000;
 /// FIRE's time-step cap in units of 1/√k_max (k_max: the largest summed contact stiffness of a
 /// particle, unit masses) in overlap removal and relaxation, and in settling below
-/// `Numerics::settling_step_from` particles.
+/// `Numerics::large_bed_from` particles.
 const FIRE_STEP: f64 = 0.3;
 
 /// A settled packing in reduced units (length R_av).
@@ -86,6 +88,7 @@ impl Packing {
             repulsion: Repulsion::Hertz,
             down_force: 0.0,
             fire_step: FIRE_STEP,
+            mass_floor: 1.0,
         };
         let overlaps_gone = |s: &FlowStatus| s.max_overlap < n.overlap_tolerance;
         let remove = Stage {
@@ -94,13 +97,11 @@ impl Packing {
         };
         (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, overlaps_gone)?;
         let f = n.settling_force;
+        let large = packing.radius.len() >= n.large_bed_from;
         let settle = Stage {
             down_force: f,
-            fire_step: if packing.radius.len() >= n.settling_step_from {
-                n.settling_step
-            } else {
-                FIRE_STEP
-            },
+            fire_step: if large { n.settling_step } else { FIRE_STEP },
+            mass_floor: if large { n.settling_mass_floor } else { 1.0 },
             ..relax
         };
         (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, |s| {
@@ -133,7 +134,7 @@ impl Packing {
         let mut list = NeighborList::new(SKIN);
         let mut force = vec![(Vector3::zeros(), 0.0, 0.0, 0); n];
         let mut stepper = match settling.scheme {
-            SettlingScheme::Fire => Stepper::Fire(Fire::new(n, stage.fire_step)),
+            SettlingScheme::Fire => Stepper::Fire(Fire::new(n, stage.fire_step, stage.mass_floor)),
             SettlingScheme::SourceDropped => Stepper::Heun {
                 trial: vec![Vector3::zeros(); n],
                 trial_force: force.clone(),
@@ -226,6 +227,8 @@ struct Stage {
     down_force: f64,
     /// FIRE's step cap in units of 1/√k_max.
     fire_step: f64,
+    /// FIRE's masses: k_i/k_max floored at this (1: unit masses).
+    mass_floor: f64,
 }
 
 /// The stage's force law: contacts (in `repulsion`) plus the downward force.
@@ -330,10 +333,12 @@ impl ContactWork {
     }
 }
 
-/// FIRE, the fast inertial relaxation engine (Bitzek et al., PRL 97, 170201, 2006), with unit
-/// masses and its standard constants. The step is capped by the stiffest particle
-/// (dt ≤ `max_step`/√k_max, inside the explicit limit: by Gershgorin the largest frequency is
-/// at most √(2 k_max), so the step is stable below √2/√k_max) and by `MAX_MOVE`.
+/// FIRE, the fast inertial relaxation engine (Bitzek et al., PRL 97, 170201, 2006), with its
+/// standard constants and masses m_i = max(k_i/k_max, `mass_floor`) (k_i: particle i's summed
+/// contact stiffness; a floor of 1 gives unit masses). The step is capped by the stiffest
+/// particle (dt ≤ `max_step`/√k_max, inside the explicit limit: by Gershgorin on M⁻¹K each
+/// row sums to at most 2 k_i/m_i ≤ 2 k_max, so the step is stable below √2/√k_max) and by
+/// `MAX_MOVE`.
 struct Fire {
     velocity: Vec<Vector3<f64>>,
     dt: f64,
@@ -341,18 +346,21 @@ struct Fire {
     downhill: usize,
     /// The step cap in units of 1/√k_max.
     max_step: f64,
+    /// The masses' floor in units of k_max (1: unit masses).
+    mass_floor: f64,
 }
 
 impl Fire {
     const ALPHA0: f64 = 0.1;
 
-    fn new(n: usize, max_step: f64) -> Self {
+    fn new(n: usize, max_step: f64, mass_floor: f64) -> Self {
         Self {
             velocity: vec![Vector3::zeros(); n],
             dt: 0.01,
             alpha: Self::ALPHA0,
             downhill: 0,
             max_step,
+            mass_floor,
         }
     }
 
@@ -363,6 +371,8 @@ impl Fire {
         max_stiffness: f64,
         max_force: f64,
     ) {
+        let floor = self.mass_floor;
+        let mass = |f: &Load| (f.1 / max_stiffness).max(floor);
         let [power, v_squared, f_squared] = fire_sums(&self.velocity, force);
         let (v_norm, f_norm) = (v_squared.sqrt(), f_squared.sqrt());
         let dt_max = (self.max_step / max_stiffness.sqrt()).min(10.0);
@@ -390,7 +400,7 @@ impl Fire {
             .velocity
             .par_iter()
             .zip(force)
-            .map(|(v, f)| (v + guess * f.0).norm())
+            .map(|(v, f)| (v + guess / mass(f) * f.0).norm())
             .reduce(|| max_force * guess, f64::max);
         let dt = self
             .dt
@@ -401,7 +411,7 @@ impl Fire {
             .zip(&mut self.velocity)
             .zip(force)
             .for_each(|((x, v), f)| {
-                *v += dt * f.0;
+                *v += dt / mass(f) * f.0;
                 *x += dt * *v;
             });
     }
