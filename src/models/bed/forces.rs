@@ -330,8 +330,7 @@ impl ForceField {
     #[inline(always)]
     fn pair_sums(&self, i: usize, partners: impl Iterator<Item = (usize, Separation)>) -> PairSums {
         let own_diameter = self.partner[i].diameter;
-        let mut acc = PairSums::default();
-        for (j, s) in partners {
+        partners.fold(PairSums::default(), |mut acc, (j, s)| {
             let partner = &self.partner[j];
             let mu_r5 = partner.moment * s.inv_r3 * s.inv_r2;
             acc.force += s.d * mu_r5;
@@ -339,8 +338,8 @@ impl ForceField {
             let mean_d = 0.5 * (own_diameter + partner.diameter);
             acc.stiffest = larger(acc.stiffest, mu_r5);
             acc.closeness = larger(acc.closeness, mean_d * mean_d * s.inv_r2);
-        }
-        acc
+            acc
+        })
     }
 
     /// Wall forces (B2 or its alternatives) of the bottom, the two sides and the piston.

@@ -67,6 +67,24 @@ impl Kick {
         m: f64,
         h: f64,
     ) -> Vector2<f64> {
+        self.velocity_with(v, force, normal, m, (h, self.viscous_decay(h)))
+    }
+
+    /// (τ_v, e^{−h/τ_v}) of a half kick of length h, None without viscous friction: the same
+    /// for every particle, so a pass over the particles takes the exponential once.
+    fn viscous_decay(&self, h: f64) -> Option<(f64, f64)> {
+        self.viscous_time.map(|tau| (tau, (-h / tau).exp()))
+    }
+
+    /// [`Kick::velocity`] with the kick's length h and its [`Kick::viscous_decay`].
+    fn velocity_with(
+        &self,
+        v: Vector2<f64>,
+        force: Vector2<f64>,
+        normal: f64,
+        m: f64,
+        (h, viscous): (f64, Option<(f64, f64)>),
+    ) -> Vector2<f64> {
         let vt = self.threshold_speed;
         if self.dry && self.scheme == FrictionScheme::Explicit {
             let force = force - v * self.viscous_time.map_or(0.0, |tau| m / tau);
@@ -80,11 +98,8 @@ impl Kick {
         if self.dry && v.norm() < vt && force.norm() <= self.static_friction * normal {
             return Vector2::zeros();
         }
-        let u = match self.viscous_time {
-            Some(tau) => {
-                let decay = (-h / tau).exp();
-                v * decay + force * (tau * (1.0 - decay) / m)
-            }
+        let u = match viscous {
+            Some((tau, decay)) => v * decay + force * (tau * (1.0 - decay) / m),
             None => v + force * (h / m),
         };
         if !self.dry {
@@ -155,8 +170,9 @@ fn kick_each(
         (&'a mut Vector2<f64>, &'a mut Vector2<f64>),
         (&'a ParticleForce, &'a f64),
     );
+    let length = (h, kick.viscous_decay(h));
     let one = |((x, v), (o, m)): Item| {
-        *v = kick.velocity(*v, o.force, o.normal, *m, h);
+        *v = kick.velocity_with(*v, o.force, o.normal, *m, length);
         if let Some(dt) = drift {
             *x += *v * dt;
         }

@@ -8,6 +8,9 @@
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
+
 use crate::neighbor::NeighborList;
 
 /// Pairs per batch: the divisions and square roots of a batch are independent and vectorize.
@@ -19,6 +22,7 @@ const CHUNK: usize = 512;
 
 /// The geometry of one pair (i < j) inside the distance range, zero outside it.
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 pub(super) struct Separation {
     /// d = r_i − r_j, m.
     pub(super) d: Vector2<f64>,
@@ -29,16 +33,21 @@ pub(super) struct Separation {
 }
 
 /// The unordered pairs of one neighbour list and their terms, reindexed at each list build.
+/// A list row is sorted: a disk's partners below it, then those above it. The pairs (i, j)
+/// with j above i are numbered consecutively in i's list order, so i reads their terms in
+/// sequence; its partners below it find theirs through `below`.
 #[derive(Debug, Clone, Default)]
 pub(super) struct HalfList {
     /// The list build the indices below belong to (0: none yet).
     build: usize,
     /// (i, j), i < j, in list order of i.
     pairs: Vec<(u32, u32)>,
-    /// For every list entry (disk i, partner j) in list order: its pair's index in `pairs`.
-    slot: Vec<u32>,
-    /// Index in `slot` of each disk's first entry.
-    row: Vec<usize>,
+    /// Index in `pairs` of each disk's first pair with a partner above it (N + 1 entries).
+    first_pair: Vec<usize>,
+    /// For every list entry (disk i, partner j < i) in list order: its pair's index in `pairs`.
+    below: Vec<u32>,
+    /// Index in `below` of each disk's first entry (N + 1 entries).
+    below_row: Vec<usize>,
     terms: Vec<Separation>,
 }
 
@@ -66,59 +75,99 @@ impl HalfList {
         }
     }
 
-    /// Disk i's partners in its list order, with the pair's separation as seen from i.
+    /// Disk i's partners in its list order, with the pair's separation as seen from i (fold
+    /// it: the partners below i and those above it are two loops).
     pub(super) fn of<'a>(
         &'a self,
         list: &'a NeighborList<2>,
         i: usize,
     ) -> impl Iterator<Item = (usize, Separation)> + 'a {
-        let row = list.of(i);
-        let slots = &self.slot[self.row[i]..self.row[i] + row.len()];
-        row.iter().zip(slots).map(move |(&j, &s)| {
+        let slots = &self.below[self.below_row[i]..self.below_row[i + 1]];
+        let (lower, upper) = list.of(i).split_at(slots.len());
+        let below = lower.iter().zip(slots).map(|(&j, &s)| {
             let t = self.terms[s as usize];
-            let j = j as usize;
-            let d = if j > i { t.d } else { -t.d };
-            (j, Separation { d, ..t })
-        })
+            (j as usize, Separation { d: -t.d, ..t })
+        });
+        let terms = &self.terms[self.first_pair[i]..self.first_pair[i + 1]];
+        let above = upper.iter().zip(terms).map(|(&j, &t)| (j as usize, t));
+        below.chain(above)
     }
 
     /// The pairs of a newly built list and every entry's pair, in one pass: disk i's entries
     /// below it (partners j < i) come in ascending j, the order in which the disks j reach
     /// their pair with i, so each row fills its lower part from a cursor.
     fn index(&mut self, list: &NeighborList<2>, n: usize) {
-        self.pairs.clear();
-        self.row.clear();
-        let mut start = 0;
+        self.below_row.clear();
+        self.below_row.push(0);
         for i in 0..n {
-            self.row.push(start);
-            start += list.of(i).len();
+            let below = list.of(i).partition_point(|&j| (j as usize) < i);
+            self.below_row.push(self.below_row[i] + below);
         }
-        self.slot.clear();
-        self.slot.resize(start, 0);
-        let mut below = vec![0; n];
+        self.below.clear();
+        self.below.resize(self.below_row[n], 0);
+        let mut cursor = self.below_row[..n].to_vec();
+        self.pairs.clear();
+        self.first_pair.clear();
         for i in 0..n {
-            let row = list.of(i);
-            let above = row.partition_point(|&j| (j as usize) <= i);
-            for (k, &j) in row.iter().enumerate().skip(above) {
-                let (pair, j) = (self.pairs.len() as u32, j as usize);
-                self.pairs.push((i as u32, j as u32));
-                self.slot[self.row[i] + k] = pair;
-                self.slot[self.row[j] + below[j]] = pair;
-                below[j] += 1;
-            }
             debug_assert_eq!(
-                below[i], above,
+                cursor[i],
+                self.below_row[i + 1],
                 "a neighbour list holds every pair in both rows"
             );
+            self.first_pair.push(self.pairs.len());
+            let row = list.of(i);
+            for &j in &row[self.below_row[i + 1] - self.below_row[i]..] {
+                self.below[cursor[j as usize]] = self.pairs.len() as u32;
+                cursor[j as usize] += 1;
+                self.pairs.push((i as u32, j));
+            }
         }
+        self.first_pair.push(self.pairs.len());
         self.build = list.builds();
     }
 }
 
-/// The separations of `pairs` into `terms`, in batches of `LANES` pairs. The arithmetic is
-/// the per-disk gather's (the range is a 0/1 weight, not a branch: a list holds many pairs
-/// beyond r_c in no predictable order).
+/// The separations of `pairs` into `terms`, with AVX where the processor has it (identical
+/// results: see [`separations_with`]).
 fn separations(
+    terms: &mut [Separation],
+    pairs: &[(u32, u32)],
+    position: &[Vector2<f64>],
+    range: (f64, f64),
+) {
+    #[cfg(target_arch = "x86_64")]
+    let avx = std::arch::is_x86_feature_detected!("avx");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx = false;
+    separations_with(terms, pairs, position, range, avx);
+}
+
+/// [`separations`] with the AVX kernel (four pairs per instruction) or the portable one. The
+/// AVX kernel does each pair's operations in the same order, none fused, and IEEE division
+/// and square root round the same in every lane, so the terms are the same bits; it leaves
+/// the last pairs (fewer than four) to the portable kernel.
+fn separations_with(
+    terms: &mut [Separation],
+    pairs: &[(u32, u32)],
+    position: &[Vector2<f64>],
+    range: (f64, f64),
+    avx: bool,
+) {
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if avx {
+        done = pairs.len() - pairs.len() % 4;
+        // SAFETY: the caller found AVX; `pairs` index into `position` (list entries).
+        unsafe { separations_avx(&mut terms[..done], &pairs[..done], position, range) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx;
+    separations_portable(&mut terms[done..], &pairs[done..], position, range);
+}
+
+/// The portable kernel, in batches of `LANES` pairs. The range is a 0/1 weight, not a branch:
+/// a list holds many pairs beyond r_c in no predictable order.
+fn separations_portable(
     terms: &mut [Separation],
     pairs: &[(u32, u32)],
     position: &[Vector2<f64>],
@@ -142,6 +191,55 @@ fn separations(
         }
         for (k, t) in terms.iter_mut().enumerate() {
             (t.inv_r2, t.inv_r3) = (inv_r2[k], inv_r3[k]);
+        }
+    }
+}
+
+/// The AVX kernel: pairs in fours (`pairs.len()` a multiple of 4), one lane each, written
+/// out whole (closures and lane arrays here spilled to the stack and cost more than the
+/// scalar kernel). The portable kernel's divisions and square roots compile to scalar
+/// instructions; here four share one.
+///
+/// # Safety
+/// Only where the processor has AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn separations_avx(
+    terms: &mut [Separation],
+    pairs: &[(u32, u32)],
+    position: &[Vector2<f64>],
+    (inner2, cutoff2): (f64, f64),
+) {
+    let (inner2, cutoff2) = (_mm256_set1_pd(inner2), _mm256_set1_pd(cutoff2));
+    let one = _mm256_set1_pd(1.0);
+    // SAFETY (loads): a Vector2<f64> is two contiguous f64.
+    let at = |k: u32| unsafe { _mm_loadu_pd(position[k as usize].as_ptr()) };
+    for (terms, pairs) in terms.chunks_exact_mut(4).zip(pairs.chunks_exact(4)) {
+        let d = |k: usize| _mm_sub_pd(at(pairs[k].0), at(pairs[k].1));
+        // (dx, dy) of pairs 0 and 2, and of pairs 1 and 3
+        let (even, odd) = (_mm256_set_m128d(d(2), d(0)), _mm256_set_m128d(d(3), d(1)));
+        let (dx, dy) = (_mm256_unpacklo_pd(even, odd), _mm256_unpackhi_pd(even, odd));
+        let r2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+        let inside = _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GE_OQ>(r2, inner2),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(r2, cutoff2),
+        );
+        let inv_r2 = _mm256_div_pd(_mm256_and_pd(one, inside), r2);
+        let inv_r3 = _mm256_mul_pd(inv_r2, _mm256_sqrt_pd(inv_r2));
+        // (1/r², 1/r³) of pairs 0 and 2, and of pairs 1 and 3
+        let (powers_even, powers_odd) = (
+            _mm256_unpacklo_pd(inv_r2, inv_r3),
+            _mm256_unpackhi_pd(inv_r2, inv_r3),
+        );
+        let rows = [
+            _mm256_permute2f128_pd::<0x20>(even, powers_even),
+            _mm256_permute2f128_pd::<0x20>(odd, powers_odd),
+            _mm256_permute2f128_pd::<0x31>(even, powers_even),
+            _mm256_permute2f128_pd::<0x31>(odd, powers_odd),
+        ];
+        for (t, row) in terms.iter_mut().zip(rows) {
+            // SAFETY: a Separation is four f64 in this order (repr(C)).
+            unsafe { _mm256_storeu_pd((t as *mut Separation).cast::<f64>(), row) };
         }
     }
 }
@@ -184,6 +282,40 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// Where the processor has AVX, its kernel gives the portable kernel's bits for every
+    /// pair, inside the range, outside it and on its bounds, with a count of pairs that
+    /// leaves a remainder for the portable tail.
+    #[test]
+    fn avx_and_portable_separations_are_identical() {
+        let position: Vec<_> = (0..61)
+            .map(|k| {
+                let t = k as f64;
+                Vector2::new((1.7 * t).sin() * 3.0, (0.3 * t).cos() * 2.0 + 0.01 * t)
+            })
+            .collect();
+        let mut pairs: Vec<(u32, u32)> = (0..61u32)
+            .flat_map(|i| (i + 1..61).map(move |j| (i, j)))
+            .collect();
+        pairs.truncate(pairs.len() - 3);
+        let d = position[0] - position[1];
+        let on_bound = d.x * d.x + d.y * d.y;
+        for range in [(0.09, 2.25), (on_bound, 2.0 * on_bound), (0.5, on_bound)] {
+            let bits = |avx: bool| {
+                let mut terms = vec![Separation::default(); pairs.len()];
+                separations_with(&mut terms, &pairs, &position, range, avx);
+                terms
+                    .iter()
+                    .map(|t| [t.d.x, t.d.y, t.inv_r2, t.inv_r3].map(f64::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx") {
+                assert_eq!(bits(true), bits(false), "{range:?}");
+            }
+            assert!(bits(false).iter().any(|t| t[2] != 0) && bits(false).iter().any(|t| t[2] == 0));
         }
     }
 }
