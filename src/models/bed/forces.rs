@@ -10,7 +10,8 @@ use std::f64::consts::PI;
 
 use super::exact::ExactSums;
 use super::far_field::FarField;
-use super::list_pairs::{HalfList, Separation};
+use super::list_gather::{pair_sums, Partner};
+use super::list_pairs::HalfList;
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
 use crate::neighbor::NeighborList;
@@ -286,12 +287,12 @@ impl ForceField {
                 half,
                 split: None,
                 ..
-            } => self.pair_sums(i, half.of(list, i)),
+            } => self.list_sums(i, half, list),
             Pairs::Cut {
                 split: Some(split), ..
             }
             | Pairs::Tree { split, .. } => self
-                .pair_sums(i, split.near_half.of(&split.near, i))
+                .list_sums(i, &split.near_half, &split.near)
                 .plus(&split.far[i]),
         };
         let (mu, m) = (particles.moment[i], particles.mass[i]);
@@ -319,27 +320,16 @@ impl ForceField {
                 half,
                 split: Some(_),
                 ..
-            } => self.pair_sums(i, half.of(list, i)),
+            } => self.list_sums(i, half, list),
             _ => PairSums::default(),
         }
     }
 
-    /// The pair sums of i over its partners j and their separations (never i itself), added
-    /// one by one in the given order. Pairs outside the distance range have zero inverse
-    /// powers and add exact zeros, so the sums equal those over the pairs inside alone.
-    #[inline(always)]
-    fn pair_sums(&self, i: usize, partners: impl Iterator<Item = (usize, Separation)>) -> PairSums {
-        let own_diameter = self.partner[i].diameter;
-        partners.fold(PairSums::default(), |mut acc, (j, s)| {
-            let partner = &self.partner[j];
-            let mu_r5 = partner.moment * s.inv_r3 * s.inv_r2;
-            acc.force += s.d * mu_r5;
-            acc.normal += partner.moment_sin * s.inv_r3;
-            let mean_d = 0.5 * (own_diameter + partner.diameter);
-            acc.stiffest = larger(acc.stiffest, mu_r5);
-            acc.closeness = larger(acc.closeness, mean_d * mean_d * s.inv_r2);
-            acc
-        })
+    /// The pair sums of i over its partners in `list`, added one by one in list order. Pairs
+    /// outside the distance range have zero inverse powers and add exact zeros, so the sums
+    /// equal those over the pairs inside alone.
+    fn list_sums(&self, i: usize, half: &HalfList, list: &NeighborList<2>) -> PairSums {
+        pair_sums(&half.row(list, i), &self.partner, self.partner[i].diameter)
     }
 
     /// Wall forces (B2 or its alternatives) of the bottom, the two sides and the piston.
@@ -434,24 +424,12 @@ impl ForceField {
 /// max(a, b) for a running maximum a that is never NaN: one compare-and-select, where
 /// `f64::max` adds NaN handling to the pair loop (the result is the same: a NaN b keeps a).
 #[inline(always)]
-fn larger(a: f64, b: f64) -> f64 {
+pub(super) fn larger(a: f64, b: f64) -> f64 {
     if b > a {
         b
     } else {
         a
     }
-}
-
-/// What a particle contributes to its partners' pair sums, stored together so the pair loop
-/// reads one record per partner.
-#[derive(Debug, Clone, Copy)]
-struct Partner {
-    /// μ_j, A·m².
-    moment: f64,
-    /// μ_j sin θ_j, A·m² (B4).
-    moment_sin: f64,
-    /// D_j, m.
-    diameter: f64,
 }
 
 /// Running sums of one particle's pair loop (without the μ_i and 3μ0/4π factors).

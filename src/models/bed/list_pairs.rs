@@ -51,6 +51,32 @@ pub(super) struct HalfList {
     terms: Vec<Separation>,
 }
 
+/// One disk's list entries, below it and above it (see [`HalfList::row`]).
+pub(super) struct Row<'a> {
+    /// Partners j < i, ascending.
+    pub(super) below: &'a [u32],
+    /// Each of their pairs' index in `terms`.
+    pub(super) slots: &'a [u32],
+    /// Every pair's terms (as seen from the disk with the lower index).
+    pub(super) terms: &'a [Separation],
+    /// Partners j > i, ascending.
+    pub(super) above: &'a [u32],
+    /// Their pairs' terms, in the same order.
+    pub(super) above_terms: &'a [Separation],
+}
+
+impl Row<'_> {
+    /// The entries in list order, with the separation as seen from the disk (portable form).
+    pub(super) fn entries(&self) -> impl Iterator<Item = (usize, Separation)> + '_ {
+        let below = self.below.iter().zip(self.slots).map(|(&j, &s)| {
+            let t = self.terms[s as usize];
+            (j as usize, Separation { d: -t.d, ..t })
+        });
+        let above = self.above.iter().zip(self.above_terms);
+        below.chain(above.map(|(&j, &t)| (j as usize, t)))
+    }
+}
+
 impl HalfList {
     /// Evaluates every pair of `list` at these positions, m, counting pairs at squared
     /// distances in [inner2, cutoff2) (the others get zero inverse powers).
@@ -75,22 +101,18 @@ impl HalfList {
         }
     }
 
-    /// Disk i's partners in its list order, with the pair's separation as seen from i (fold
-    /// it: the partners below i and those above it are two loops).
-    pub(super) fn of<'a>(
-        &'a self,
-        list: &'a NeighborList<2>,
-        i: usize,
-    ) -> impl Iterator<Item = (usize, Separation)> + 'a {
+    /// Disk i's list entries: its partners below it with their pairs' slots, then those
+    /// above it with their terms in order.
+    pub(super) fn row<'a>(&'a self, list: &'a NeighborList<2>, i: usize) -> Row<'a> {
         let slots = &self.below[self.below_row[i]..self.below_row[i + 1]];
-        let (lower, upper) = list.of(i).split_at(slots.len());
-        let below = lower.iter().zip(slots).map(|(&j, &s)| {
-            let t = self.terms[s as usize];
-            (j as usize, Separation { d: -t.d, ..t })
-        });
-        let terms = &self.terms[self.first_pair[i]..self.first_pair[i + 1]];
-        let above = upper.iter().zip(terms).map(|(&j, &t)| (j as usize, t));
-        below.chain(above)
+        let (below, above) = list.of(i).split_at(slots.len());
+        Row {
+            below,
+            slots,
+            terms: &self.terms,
+            above,
+            above_terms: &self.terms[self.first_pair[i]..self.first_pair[i + 1]],
+        }
     }
 
     /// The pairs of a newly built list and every entry's pair, in one pass: disk i's entries
@@ -266,7 +288,7 @@ mod tests {
             let range = (0.09, 2.25);
             half.evaluate(&list, &position, range);
             for i in 0..n {
-                let seen: Vec<_> = half.of(&list, i).collect();
+                let seen: Vec<_> = half.row(&list, i).entries().collect();
                 assert_eq!(seen.len(), list.of(i).len());
                 for ((j, s), &listed) in seen.into_iter().zip(list.of(i)) {
                     assert_eq!(j, listed as usize);

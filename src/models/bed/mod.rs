@@ -17,6 +17,7 @@ mod exact;
 mod far_field;
 pub mod forces;
 pub mod integrator;
+mod list_gather;
 mod list_pairs;
 pub mod observables;
 pub mod pair_work;
