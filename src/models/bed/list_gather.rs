@@ -5,7 +5,7 @@
 //! thread count. The AVX form computes the terms of four entries per instruction and then adds
 //! them to the running sums one entry at a time, in the same order and with the same
 //! operations (none fused) as the portable form: the same bits. The maxima are order-free
-//! (every term ≥ 0, never NaN) and are kept per lane.
+//! (every term ≥ 0; a NaN term leaves them as [`larger`] does) and are kept per lane.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -37,7 +37,7 @@ pub(super) fn pair_sums(row: &Row, partner: &[Partner], own_diameter: f64) -> Pa
 }
 
 /// The portable form: the entries one by one.
-pub(super) fn pair_sums_portable(row: &Row, partner: &[Partner], own_diameter: f64) -> PairSums {
+fn pair_sums_portable(row: &Row, partner: &[Partner], own_diameter: f64) -> PairSums {
     row.entries().fold(PairSums::default(), |mut acc, (j, s)| {
         let partner = &partner[j];
         let mu_r5 = partner.moment * s.inv_r3 * s.inv_r2;
