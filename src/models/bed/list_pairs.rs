@@ -13,7 +13,8 @@ use std::arch::x86_64::*;
 
 use crate::neighbor::NeighborList;
 
-/// Pairs per batch: the divisions and square roots of a batch are independent and vectorize.
+/// Pairs per batch of the portable kernel: the divisions and square roots of a batch are
+/// independent and overlap (the compiler keeps them scalar, hence the AVX kernel).
 const LANES: usize = 8;
 
 /// From this many pairs on, the terms are evaluated on the rayon pool, in chunks of `CHUNK`.
