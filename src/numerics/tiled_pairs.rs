@@ -66,11 +66,7 @@ impl<const C: usize> TiledPairs<C> {
     /// Evaluates every pair of `kernel`'s particles once, on the rayon pool, with the AVX
     /// term where the processor has AVX.
     pub fn fill<K: PairTerm<C>>(&mut self, kernel: &K) {
-        #[cfg(target_arch = "x86_64")]
-        let avx = std::arch::is_x86_feature_detected!("avx");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx = false;
-        self.fill_with(kernel, avx);
+        self.fill_with(kernel, super::has_avx());
     }
 
     /// [`TiledPairs::fill`] with the AVX term or the portable one (identical results).
@@ -310,7 +306,7 @@ mod tests {
             let points = Inverse((0..n).map(|k| (k as f64 * 0.37).sin() + k as f64).collect());
             for avx in [false, true] {
                 let mut tiled = TiledPairs::<2>::default();
-                tiled.fill_with(&points, avx && has_avx());
+                tiled.fill_with(&points, avx && crate::numerics::has_avx());
                 for i in 0..n {
                     let others = (0..n).filter(|&j| j != i).map(|j| points.term(i, j).0[0]);
                     let sum: f64 = others.clone().sum();
@@ -325,12 +321,5 @@ mod tests {
         for (k, (i, j)) in rows.enumerate() {
             assert_eq!(pair_index(tiles, i, j), k);
         }
-    }
-
-    fn has_avx() -> bool {
-        #[cfg(target_arch = "x86_64")]
-        return std::arch::is_x86_feature_detected!("avx");
-        #[cfg(not(target_arch = "x86_64"))]
-        false
     }
 }

@@ -29,7 +29,7 @@ pub(super) struct Partner {
 /// the processor has it.
 pub(super) fn pair_sums(row: &Row, partner: &[Partner], own_diameter: f64) -> PairSums {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
+    if crate::numerics::has_avx() {
         // SAFETY: the processor has AVX.
         return unsafe { pair_sums_avx(row, partner, own_diameter) };
     }

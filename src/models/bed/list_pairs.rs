@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use std::arch::x86_64::*;
 
 use crate::neighbor::NeighborList;
+use crate::numerics::has_avx;
 
 /// Pairs per batch of the portable kernel: the divisions and square roots of a batch are
 /// independent and overlap (the compiler keeps them scalar, hence the AVX kernel).
@@ -158,11 +159,7 @@ fn separations(
     position: &[Vector2<f64>],
     range: (f64, f64),
 ) {
-    #[cfg(target_arch = "x86_64")]
-    let avx = std::arch::is_x86_feature_detected!("avx");
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx = false;
-    separations_with(terms, pairs, position, range, avx);
+    separations_with(terms, pairs, position, range, has_avx());
 }
 
 /// [`separations`] with the AVX kernel (four pairs per instruction) or the portable one. The
