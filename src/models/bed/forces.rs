@@ -14,6 +14,7 @@ use super::list_gather::{pair_sums, Partner};
 use super::list_pairs::HalfList;
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
+use super::walls::{Walls, WALL_NORMALS};
 use crate::neighbor::NeighborList;
 use crate::units::MU0;
 
@@ -280,6 +281,14 @@ impl ForceField {
     }
 
     fn particle(&self, i: usize, particles: &Particles, state: &State) -> ParticleForce {
+        // The walls first: they need no pair sums, so their divisions can run during the gather.
+        let walls = Walls::on(
+            self.wall_law,
+            self.wall[i],
+            state.position[i],
+            &self.geometry,
+            state.piston,
+        );
         let acc = match &self.pairs {
             Pairs::All(exact) => exact.of(i),
             Pairs::Cut {
@@ -304,11 +313,20 @@ impl ForceField {
                 0.0
             },
             closeness: acc.closeness,
-            stiffness: 4.0 * self.pair * mu * acc.stiffest / m,
+            on_piston: walls.magnitude[3],
+            piston_stiffness: walls.stiffness[3],
             ..ParticleForce::default()
         };
         out.force.y -= m * self.gravity;
-        self.add_walls(&mut out, i, m, state);
+        for (normal, magnitude) in WALL_NORMALS.iter().zip(walls.magnitude) {
+            out.force += normal * magnitude;
+        }
+        let stiffest_wall = walls
+            .stiffness
+            .into_iter()
+            .fold(f64::NEG_INFINITY, f64::max);
+        // max(a/m, b/m) = max(a, b)/m for m > 0 (rounding is monotone): one division.
+        out.stiffness = (4.0 * self.pair * mu * acc.stiffest).max(stiffest_wall) / m;
         out
     }
 
@@ -330,46 +348,6 @@ impl ForceField {
     /// equal those over the pairs inside alone.
     fn list_sums(&self, i: usize, half: &HalfList, list: &NeighborList<2>) -> PairSums {
         pair_sums(&half.row(list, i), &self.partner, self.partner[i].diameter)
-    }
-
-    /// Wall forces (B2 or its alternatives) of the bottom, the two sides and the piston.
-    fn add_walls(&self, out: &mut ParticleForce, i: usize, m: f64, state: &State) {
-        let g = &self.geometry;
-        let p = state.position[i];
-        let walls = [
-            (p.y, Vector2::y(), p.x / g.width, g.width),
-            (p.x, Vector2::x(), p.y / g.height, g.height),
-            (g.width - p.x, -Vector2::x(), p.y / g.height, g.height),
-            (state.piston - p.y, -Vector2::y(), p.x / g.width, g.width),
-        ];
-        for (k, (w, normal, f, length)) in walls.into_iter().enumerate() {
-            let w = w.max(1e-9);
-            let (magnitude, exponent) = self.wall_force(i, w, f.clamp(0.0, 1.0), length);
-            out.force += normal * magnitude;
-            let k_wall = exponent * magnitude / w;
-            out.stiffness = out.stiffness.max(k_wall / m);
-            if k == 3 {
-                out.on_piston = magnitude;
-                out.piston_stiffness = k_wall;
-            }
-        }
-    }
-
-    /// Magnitude of a wall's repulsion at distance w, N, and its power-law exponent.
-    fn wall_force(&self, i: usize, w: f64, f: f64, length: f64) -> (f64, f64) {
-        let c = self.wall[i];
-        match self.wall_law {
-            WallLaw::Empirical => (c / (w * w * w * w.sqrt()), 3.5),
-            WallLaw::InfiniteRow => (c / (w * w * w), 3.0),
-            WallLaw::FiniteBar => {
-                // Each end term, written with t = fL/ℓ so that f → 0 is regular:
-                // (1/√(A²+1))(3A²+2)/(3A²+3) = t(3+2t²)/(√(1+t²)(3+3t²)), A = 1/t.
-                let end =
-                    |t: f64| t * (3.0 + 2.0 * t * t) / ((1.0 + t * t).sqrt() * (3.0 + 3.0 * t * t));
-                let bracket = end(f * length / w) + end((1.0 - f) * length / w);
-                (c * bracket / (w * w * w), 4.0)
-            }
-        }
     }
 
     /// Ordered pair terms (i, j) the last evaluation's loops ran over, masked ones included

@@ -18,7 +18,8 @@
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
-use super::forces::{ForceField, ParticleForce};
+use super::forces::ForceField;
+use super::kick_lanes::{kick_fours, Discs};
 use super::params::BedParams;
 pub use super::params::FrictionScheme;
 use super::state::{Particles, State};
@@ -166,30 +167,67 @@ fn kick_each(
     h: f64,
     drift: Option<f64>,
 ) {
-    type Item<'a> = (
-        (&'a mut Vector2<f64>, &'a mut Vector2<f64>),
-        (&'a ParticleForce, &'a f64),
-    );
     let length = (h, kick.viscous_decay(h));
-    let one = |((x, v), (o, m)): Item| {
+    let (position, velocity) = (&mut state.position, &mut state.velocity);
+    let (force, mass) = (&field.out[..], &particles.mass[..]);
+    if position.len() >= PARALLEL_UPDATE_FROM {
+        position
+            .par_chunks_mut(UPDATE_BLOCK)
+            .zip(velocity.par_chunks_mut(UPDATE_BLOCK))
+            .zip(
+                force
+                    .par_chunks(UPDATE_BLOCK)
+                    .zip(mass.par_chunks(UPDATE_BLOCK)),
+            )
+            .for_each(|((position, velocity), (force, mass))| {
+                let discs = Discs {
+                    position,
+                    velocity,
+                    force,
+                    mass,
+                };
+                kick_block(kick, discs, length, drift)
+            });
+    } else {
+        let discs = Discs {
+            position,
+            velocity,
+            force,
+            mass,
+        };
+        kick_block(kick, discs, length, drift);
+    }
+}
+
+/// Discs per parallel task of the kicks.
+const UPDATE_BLOCK: usize = 512;
+
+/// The kicks (and drifts) of one block of discs: in fours where [`kick_fours`] can, the
+/// rest one by one.
+fn kick_block(
+    kick: &Kick,
+    mut discs: Discs,
+    length: (f64, Option<(f64, f64)>),
+    drift: Option<f64>,
+) {
+    let done = kick_fours(kick, &mut discs, length, drift);
+    let Discs {
+        position,
+        velocity,
+        force,
+        mass,
+    } = discs;
+    for (((x, v), o), m) in position
+        .iter_mut()
+        .zip(velocity.iter_mut())
+        .zip(force)
+        .zip(mass)
+        .skip(done)
+    {
         *v = kick.velocity_with(*v, o.force, o.normal, *m, length);
         if let Some(dt) = drift {
             *x += *v * dt;
         }
-    };
-    let (position, velocity) = (&mut state.position, &mut state.velocity);
-    if position.len() >= PARALLEL_UPDATE_FROM {
-        position
-            .par_iter_mut()
-            .zip(velocity.par_iter_mut())
-            .zip(field.out.par_iter().zip(&particles.mass))
-            .for_each(one);
-    } else {
-        position
-            .iter_mut()
-            .zip(velocity.iter_mut())
-            .zip(field.out.iter().zip(&particles.mass))
-            .for_each(one);
     }
 }
 

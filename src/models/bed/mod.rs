@@ -17,6 +17,7 @@ mod exact;
 mod far_field;
 pub mod forces;
 pub mod integrator;
+mod kick_lanes;
 mod list_gather;
 mod list_pairs;
 pub mod observables;
@@ -27,6 +28,7 @@ pub mod report;
 pub mod state;
 pub mod study;
 mod validate;
+mod walls;
 
 pub use params::BedParams;
 
