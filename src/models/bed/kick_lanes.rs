@@ -26,6 +26,7 @@ pub(super) struct Discs<'a> {
 /// Half-kicks (and drifts) the leading discs of the block in fours where the processor has
 /// AVX and the kick is the semi-implicit dry one; returns how many it did (a multiple of
 /// four, 0 otherwise), the rest being left to [`Kick::velocity_with`].
+#[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
 pub(super) fn kick_fours(
     kick: &Kick,
     discs: &mut Discs,
