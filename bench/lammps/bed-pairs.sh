@@ -21,8 +21,13 @@
 # (`fix viscous`) from a jittered grid; both codes' pairs per particle are printed, and the
 # per-pair ratio does not depend on them. Each measurement runs twice; the better run (per
 # CPU second) is kept.
-# Usage: [BED_CASES="368:5.63mm/s 3680:56.3mm/s"] bash bench/lammps/bed-pairs.sh [magopt binary]
-# (N:piston speed pairs)
+# AT_ONCE=1 then also runs both codes at the same time, each pinned to one of the first two
+# cores (`taskset`), twice with the cores swapped, and prints those repeats' ratios
+# ("at once" lines): on a machine whose speed drifts over minutes, runs one after the other
+# compare different speeds, while runs at the same time see the same drift (both share the
+# caches and the memory, so both run slower than alone).
+# Usage: [AT_ONCE=1] [BED_CASES="368:5.63mm/s 3680:56.3mm/s"] bash bench/lammps/bed-pairs.sh
+# [magopt binary] (N:piston speed pairs)
 set -euo pipefail
 here=$(dirname "$0")
 source "$here/lib.sh"
@@ -109,6 +114,26 @@ IN
 fraction %.4f, cell %.2f × %.2f D, r_c = %s D, r_v = %s D; LAMMPS pair time %.3g of %.3g s, \
 CPU use %.2f)\n", p, w, n * 3.14159265 / 4 / (w * p), c, v, ps, t, u}'
   summary+=("summary|bed r⁻⁴ N=$n|$(ratio "$mps" "$lps")|$(ratio "$mpe" "$lpe")")
+  if [ -n "${AT_ONCE:-}" ]; then at_once "$n" "$speed" "$steps" "$lpp"; fi
+}
+# Both codes at the same time, one per core, twice with the cores swapped; the ratios per CPU
+# second of particle-steps and of pair evaluations (each code's own pairs per particle).
+at_once() {
+  local n=$1 speed=$2 steps=$3 lpp=$4 k log out lps mps mpp
+  command -v taskset > /dev/null || { echo "taskset not installed: AT_ONCE skipped"; return; }
+  for k in 0 1; do
+    log=$work/log.once-$n.$k out=$work/once-$n.$k
+    taskset -c "$k" lmp -in "$work/in.bed-$n" -log "$log" -screen none > /dev/null &
+    RAYON_NUM_THREADS=1 taskset -c "$((1 - k))" "$bin" bench bed --threads 1 --neighbors verlet \
+      --particles "$n" --velocity "$speed" --out "$out" > /dev/null
+    wait
+    lps=$(awk -v n="$n" -v s="$steps" -v t="$(lmp_cpu_s "$log")" 'BEGIN {print n * s / t}')
+    read -r mps mpp < <(jq -r '.rows[0] | [.particle_steps_per_cpu_s, .pairs_per_particle] |
+      @tsv' "$out/"*.json)
+    summary+=("at once (LAMMPS on core $k)|bed r⁻⁴ N=$n|$(ratio "$mps" "$lps")|$(ratio \
+      "$(awk -v a="$mps" -v p="$mpp" 'BEGIN {print a * p}')" \
+      "$(awk -v a="$lps" -v p="$lpp" 'BEGIN {print a * p}')")")
+  done
 }
 summary=()
 for case in ${BED_CASES:-368:5.63mm/s 3680:56.3mm/s}; do bed_case "${case%%:*}" "${case#*:}"; done
