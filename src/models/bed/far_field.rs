@@ -422,22 +422,28 @@ mod tests {
         }
     }
 
+    impl Errors {
+        /// Asserts the largest force and normal errors are below these bounds.
+        fn assert_within(&self, force: f64, normal: f64) {
+            assert!(
+                self.force < force && self.normal < normal,
+                "force {:e}, normal {:e}",
+                self.force,
+                self.normal
+            );
+        }
+    }
+
     #[test]
     fn opening_no_node_gives_the_exact_far_sums() {
-        let e = error(0.0, 600);
-        assert!(
-            e.force < 1e-13 && e.normal < 1e-13,
-            "{:e} {:e}",
-            e.force,
-            e.normal
-        );
+        error(0.0, 600).assert_within(1e-13, 1e-13);
     }
 
     #[test]
     fn the_error_falls_faster_than_the_cube_of_the_opening_angle() {
         let (e1, e2) = (error(0.3, 900), error(0.15, 900));
+        e1.assert_within(3e-3, 1e-3);
         let (f1, n1, f2, n2) = (e1.force, e1.normal, e2.force, e2.normal);
-        assert!(f1 < 3e-3 && n1 < 1e-3, "{f1:e} {n1:e}");
         // the quadrupole term leaves a third-order error: halving θ gains more than 8×
         assert!(
             f2 < f1 / 8.0 && n2 < n1 / 8.0,
@@ -452,12 +458,7 @@ mod tests {
     #[test]
     fn at_ten_thousand_discs_the_error_stays_bounded_and_incoherent() {
         let e = error(0.3, 10_000);
-        assert!(
-            e.force < 3e-3 && e.normal < 1e-3,
-            "{:e} {:e}",
-            e.force,
-            e.normal
-        );
+        e.assert_within(3e-3, 1e-3);
         assert!(e.net < e.force_rms / 10.0, "{:e} {:e}", e.net, e.force_rms);
     }
 

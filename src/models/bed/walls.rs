@@ -27,7 +27,7 @@ pub(super) const WALL_NORMALS: [Vector2<f64>; 4] = [
 const CLOSEST: f64 = 1e-9;
 
 /// The four walls' repulsion on one disc, in the order of [`WALL_NORMALS`].
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Walls {
     /// Force magnitudes, N.
     pub(super) magnitude: [f64; 4],
