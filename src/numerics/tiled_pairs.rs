@@ -129,7 +129,7 @@ fn combine<K: PairTerm<C>, const C: usize>(c: usize, running: f64, new: f64) -> 
 }
 
 /// The particles of tile `t` of n.
-fn tile(t: usize, n: usize) -> std::ops::Range<usize> {
+pub fn tile(t: usize, n: usize) -> std::ops::Range<usize> {
     t * TILE..((t + 1) * TILE).min(n)
 }
 
@@ -267,7 +267,7 @@ fn reduce_lanes<K: PairTerm<C>, const C: usize>(c: usize, mut a: [f64; LANES]) -
 
 /// Index of the tile pair (i, j), i ≤ j, among the pairs of `tiles` tiles in row-major order
 /// (row k holds tiles − k pairs).
-fn pair_index(tiles: usize, i: usize, j: usize) -> usize {
+pub fn pair_index(tiles: usize, i: usize, j: usize) -> usize {
     i * tiles - i * i.saturating_sub(1) / 2 + (j - i)
 }
 

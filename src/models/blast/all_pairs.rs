@@ -14,6 +14,8 @@ use rayon::prelude::*;
 use std::arch::x86_64::*;
 
 use super::pairs::PairLaw;
+use super::params::NearFieldPrecision;
+use super::single::SinglePairs;
 #[cfg(target_arch = "x86_64")]
 use crate::numerics::tiled_pairs::negate;
 use crate::numerics::tiled_pairs::{PairTerm, TiledPairs, TILE};
@@ -35,9 +37,19 @@ struct Coordinates {
 pub struct AllPairs {
     at: Coordinates,
     tiles: TiledPairs<3>,
+    /// The single-precision kernel, when chosen instead.
+    single: Option<SinglePairs>,
 }
 
 impl AllPairs {
+    /// The kernel in the given arithmetic.
+    pub fn new(precision: NearFieldPrecision) -> Self {
+        Self {
+            single: (precision == NearFieldPrecision::Single).then(SinglePairs::default),
+            ..Self::default()
+        }
+    }
+
     /// Near-field force on every particle from all others, written into `out`, N. Only for
     /// the source's exponents β = (1, 2) (see [`AllPairs::applies`]).
     pub fn sum(
@@ -47,6 +59,9 @@ impl AllPairs {
         charge_per_mass: &[f64],
         out: &mut [Vector3<f64>],
     ) {
+        if let Some(single) = &mut self.single {
+            return single.sum(law, positions, charge_per_mass, out);
+        }
         self.at.load(law, positions, charge_per_mass);
         self.tiles.fill(&self.at);
         self.gather(out);

@@ -11,7 +11,7 @@ use super::all_pairs::AllPairs;
 use super::cloud::Cloud;
 use super::field::{lorentz_acceleration, Drag};
 use super::pairs::{clearly_beyond, contact_area, Body, PairLaw};
-use super::params::BlastParams;
+use super::params::{BlastParams, NearFieldPrecision};
 use super::tree::Octree;
 use crate::neighbor::NeighborList;
 
@@ -48,7 +48,7 @@ impl Interactor {
         let theta = params.near_field.theta;
         let law = PairLaw::new(params);
         let all_pairs = (near_field && cutoff <= 0.0 && theta <= 0.0 && AllPairs::applies(&law))
-            .then(AllPairs::default);
+            .then(|| AllPairs::new(params.near_field.precision));
         Self {
             law,
             drag: Drag::new(params),
@@ -97,6 +97,18 @@ impl Interactor {
         if flags.contact || flags.damping || flags.friction || flags.bonding {
             self.contacts.update(&cloud.positions, &self.radii);
         }
+        self.prepare_near_field(cloud);
+        let this = &*self;
+        forces
+            .par_iter_mut()
+            .zip(moments.par_iter_mut())
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(i, (f, m))| (*f, *m) = this.on_particle(cloud, i, dt));
+    }
+
+    /// Updates the near field's cut-off list, or sums it by the tree or the all-pairs kernel.
+    fn prepare_near_field(&mut self, cloud: &Cloud) {
         if let Some((list, _)) = &mut self.near {
             list.update(&cloud.positions, &self.near_radii);
         }
@@ -109,13 +121,14 @@ impl Interactor {
             let (x, q) = (&cloud.positions, &cloud.charge_per_mass);
             kernel.sum(&self.law, x, q, &mut self.near_forces);
         }
-        let this = &*self;
-        forces
-            .par_iter_mut()
-            .zip(moments.par_iter_mut())
-            .enumerate()
-            .with_min_len(CHUNK)
-            .for_each(|(i, (f, m))| (*f, *m) = this.on_particle(cloud, i, dt));
+    }
+
+    /// The near-field force on every particle of `cloud` by the method in use (C8), N.
+    pub fn near_field(&mut self, cloud: &Cloud) -> Vec<Vector3<f64>> {
+        self.prepare_near_field(cloud);
+        (0..cloud.len())
+            .map(|i| self.near_field_on(cloud, i))
+            .collect()
     }
 
     /// Force and moment on particle i.
@@ -230,4 +243,30 @@ impl Interactor {
             .sum();
         formed / 2
     }
+}
+
+/// The error of `params`' near-field method on `cloud` against the exact double-precision
+/// sum over all pairs: (largest error / largest exact force, rms error / rms exact force).
+/// Zero for the exact method itself.
+pub fn near_field_error(params: &BlastParams, cloud: &Cloud) -> (f64, f64) {
+    let mut exact_params = params.clone();
+    exact_params.interactions.near_field = true;
+    let n = &mut exact_params.near_field;
+    (n.cutoff, n.theta, n.precision) = (0.0, 0.0, NearFieldPrecision::Double);
+    let exact = Interactor::new(&exact_params, cloud.len()).near_field(cloud);
+    let mut method_params = params.clone();
+    method_params.interactions.near_field = true;
+    let method = Interactor::new(&method_params, cloud.len()).near_field(cloud);
+    let errors: Vec<f64> = exact
+        .iter()
+        .zip(&method)
+        .map(|(e, m)| (e - m).norm())
+        .collect();
+    let sizes: Vec<f64> = exact.iter().map(|e| e.norm()).collect();
+    let largest = |v: &[f64]| v.iter().fold(0.0, |a: f64, &b| a.max(b));
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    (
+        largest(&errors) / largest(&sizes),
+        rms(&errors) / rms(&sizes),
+    )
 }

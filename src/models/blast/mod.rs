@@ -19,6 +19,7 @@ pub mod interact;
 pub mod observe;
 pub mod pairs;
 pub mod params;
+pub mod single;
 pub mod snapshot;
 pub mod study;
 pub mod switches;
@@ -34,7 +35,9 @@ use cloud::Cloud;
 use explicit::Explicit;
 use interact::Interactor;
 use observe::{clusters, kinetic_energy, Envelope, Motion};
-pub use params::{BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis};
+pub use params::{
+    BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis, NearFieldPrecision,
+};
 use trapezoid::{StepStats, Trapezoid};
 
 /// A cloud with its time and stepper.

@@ -3,7 +3,9 @@
 use nalgebra::Vector3;
 
 use super::field::Drag;
-use super::params::{BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis, MAX_SAMPLES};
+use super::params::{
+    BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis, NearFieldPrecision, MAX_SAMPLES,
+};
 use super::theory::{stokes_ratio, turning_field, ChargedSphere};
 use super::{run, BlastOutcome};
 use crate::study::model::{
@@ -397,6 +399,17 @@ static PARAMETERS: &[BlastParam] = &[
         )
         .within(NON_NEGATIVE),
         near_field.theta
+    ),
+    choice_param!(
+        "near_field_precision",
+        "Arithmetic of the all-pairs near-field sum: double (exact to round-off) or single \
+         (single-precision lanes, double-precision tile sums: force error ~1e-6, about a third \
+         of the cost; cut-off 0, theta 0, exponents (1, 2))",
+        near_field.precision,
+        [
+            ("double", NearFieldPrecision::Double),
+            ("single", NearFieldPrecision::Single)
+        ]
     ),
     number_param!(
         num(
