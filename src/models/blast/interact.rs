@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::all_pairs::AllPairs;
+use super::bonds::BondIndex;
 use super::cloud::Cloud;
 use super::field::{lorentz_acceleration, Drag};
 use super::pairs::{clearly_beyond, contact_area, Body, PairLaw};
@@ -35,6 +36,8 @@ pub struct Interactor {
     near_forces: Vec<Vector3<f64>>,
     /// Bonded partners of each particle with the contact area at bonding, ascending.
     bonds: Vec<Vec<(u32, f64)>>,
+    /// The bonded pairs once each, with their wrenches.
+    bond_index: BondIndex,
     radii: Vec<f64>,
     near_radii: Vec<f64>,
 }
@@ -60,6 +63,7 @@ impl Interactor {
             all_pairs,
             near_forces: vec![Vector3::zeros(); n],
             bonds: vec![Vec::new(); n],
+            bond_index: BondIndex::default(),
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
         }
@@ -98,6 +102,7 @@ impl Interactor {
             self.contacts.update(&cloud.positions, &self.radii);
         }
         self.prepare_near_field(cloud);
+        self.bond_index.evaluate(&self.law, cloud, dt);
         let this = &*self;
         forces
             .par_iter_mut()
@@ -162,8 +167,8 @@ impl Interactor {
                 moment += m;
             }
         }
-        for &(j, area) in &self.bonds[i] {
-            let (f, m) = self.law.contact(&me, &body(j as usize), Some(area), dt);
+        for (k, &(j, _)) in self.bonds[i].iter().enumerate() {
+            let (f, m) = self.bond_index.on(i, k, j);
             force += f;
             moment += m;
         }
@@ -241,6 +246,9 @@ impl Interactor {
                 list.len() - before
             })
             .sum();
+        if formed > 0 {
+            self.bond_index.index(&self.bonds);
+        }
         formed / 2
     }
 }

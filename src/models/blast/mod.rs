@@ -12,6 +12,7 @@
 //! - `observe`, `snapshot`: observables and snapshot writers; `study`: the study model.
 
 pub mod all_pairs;
+pub mod bonds;
 pub mod cloud;
 pub mod explicit;
 pub mod field;
