@@ -12,6 +12,8 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+use super::bond_lanes::four_wrenches;
 use super::cloud::Cloud;
 use super::pairs::{Body, PairLaw, Wrench};
 
@@ -57,18 +59,34 @@ impl BondIndex {
             .resize(self.pairs.len(), (Vector3::zeros(), Vector3::zeros()));
     }
 
-    /// Every bonded pair's wrench on its first particle at the state `cloud`.
+    /// Every bonded pair's wrench on its first particle at the state `cloud`: four pairs
+    /// per AVX instruction where the processor has AVX (the same bits), the rest one by one.
     pub fn evaluate(&mut self, law: &PairLaw, cloud: &Cloud, dt: f64) {
-        let body = |k: u32| Body {
-            position: cloud.positions[k as usize],
-            velocity: cloud.velocities[k as usize],
-            spin: cloud.spins[k as usize],
-        };
+        self.evaluate_with(law, cloud, dt, crate::numerics::has_avx());
+    }
+
+    /// [`BondIndex::evaluate`] with or without the AVX lanes.
+    fn evaluate_with(&mut self, law: &PairLaw, cloud: &Cloud, dt: f64, avx: bool) {
         self.wrenches
-            .par_iter_mut()
-            .zip(self.pairs.par_iter())
-            .with_min_len(CHUNK)
-            .for_each(|(w, &(i, j, area))| *w = law.contact(&body(i), &body(j), Some(area), dt));
+            .par_chunks_mut(CHUNK)
+            .zip(self.pairs.par_chunks(CHUNK))
+            .for_each(|(out, pairs)| {
+                let mut done = 0;
+                #[cfg(target_arch = "x86_64")]
+                if avx {
+                    for (out, pairs) in out.chunks_exact_mut(4).zip(pairs.chunks_exact(4)) {
+                        let four = pairs.try_into().expect("chunks of four");
+                        // SAFETY: `avx` is true only where the processor has AVX.
+                        out.copy_from_slice(&unsafe { four_wrenches(law, cloud, dt, four) });
+                        done += 4;
+                    }
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                let _ = avx; // no AVX lanes off x86-64
+                for (w, &(i, j, area)) in out[done..].iter_mut().zip(&pairs[done..]) {
+                    *w = law.contact(&body(cloud, i), &body(cloud, j), Some(area), dt);
+                }
+            });
     }
 
     /// The wrench on particle i from the bond at entry k of its list, whose partner is j.
@@ -80,6 +98,16 @@ impl BondIndex {
         } else {
             (-force, moment)
         }
+    }
+}
+
+/// Particle k of `cloud` as a pair force sees it.
+fn body(cloud: &Cloud, k: u32) -> Body {
+    let k = k as usize;
+    Body {
+        position: cloud.positions[k],
+        velocity: cloud.velocities[k],
+        spin: cloud.spins[k],
     }
 }
 
@@ -136,6 +164,89 @@ mod tests {
                 let own = law.contact(&body(i), &body(j as usize), Some(a), 1e-4);
                 assert_ne!(own.0, Vector3::zeros(), "{i}–{j} acts");
                 assert_eq!(index.on(i, k, j), own, "{i}–{j}");
+            }
+        }
+    }
+
+    /// The AVX lanes give the scalar law's bits for every regime: compressed pairs that
+    /// stick or slip, stretched pairs, pairs without slip, a coincident pair, with the
+    /// source's exponents and with non-integer ones (the `powf` path), rotation on and off;
+    /// 203 pairs, so a remainder runs scalar.
+    #[test]
+    fn four_lanes_give_the_bits_of_the_scalar_law() {
+        use rand::RngExt;
+        let mut rng = crate::rng::run_stream(11, crate::rng::Purpose::Positions);
+        let mut params = BlastParams::source_example();
+        params.interactions = Interactions::all();
+        let r = params.radius;
+        let n = 60;
+        let positions: Vec<Vector3<f64>> = (0..n)
+            .map(|_| Vector3::from_fn(|_, _| rng.random::<f64>() * 6.0 * r))
+            .collect();
+        let mut cloud = Cloud::at_rest(positions, &params);
+        for (k, (v, w)) in cloud
+            .velocities
+            .iter_mut()
+            .zip(&mut cloud.spins)
+            .enumerate()
+        {
+            // at rest, creeping (sticking contacts) or moving (slipping ones)
+            let speed = [0.0, 1e-6, 1.0][k % 3];
+            *v = Vector3::from_fn(|_, _| speed * (rng.random::<f64>() - 0.5));
+            *w = Vector3::from_fn(|_, _| 40.0 * speed * (rng.random::<f64>() - 0.5));
+        }
+        cloud.positions[1] = cloud.positions[0]; // a coincident pair
+        let mut lists = vec![Vec::new(); n];
+        let mut pairs = 0;
+        for i in 0..n {
+            for j in i + 1..n {
+                let dist = (cloud.positions[j] - cloud.positions[i]).norm();
+                if dist < 2.3 * r && pairs < 203 {
+                    let area = 0.02 * r * r * (1.0 + (i + j) as f64 / n as f64);
+                    lists[i].push((j as u32, area));
+                    lists[j].push((i as u32, area));
+                    pairs += 1;
+                }
+            }
+        }
+        assert!(pairs > 100 && pairs % 4 != 0, "{pairs} pairs");
+        let mut regimes = [0; 4]; // stretched, no slip, stick, slip (source exponents)
+        let law = PairLaw::new(&params);
+        for (i, list) in lists.iter().enumerate() {
+            for &(j, _) in list.iter().filter(|&&(j, _)| j as usize > i) {
+                let (a, b) = (body(&cloud, i as u32), body(&cloud, j));
+                let dist = (b.position - a.position).norm();
+                let strain = (2.0 * r - dist) / (2.0 * r);
+                let slip = (b.velocity - a.velocity).norm() + (b.spin - a.spin).norm();
+                let area = super::super::pairs::contact_area(r, dist);
+                let stick = law.contact.friction_stiffness * slip * area * 1e-4;
+                let limit = law.contact.static_friction * law.stiffness * strain * strain * area;
+                regimes[match (strain < 0.0, slip == 0.0, stick < 0.5 * limit) {
+                    (true, _, _) => 0,
+                    (_, true, _) => 1,
+                    (_, _, true) => 2,
+                    _ => 3,
+                }] += 1;
+            }
+        }
+        assert!(regimes.iter().all(|&k| k > 0), "regimes {regimes:?}");
+        for (exponents, rotation) in [((2.0, 2.0), true), ((1.5, 1.7), false)] {
+            params.contact.exponent = exponents.0;
+            params.contact.bond_exponent = exponents.1;
+            params.interactions.rotation = rotation;
+            let law = PairLaw::new(&params);
+            let mut index = BondIndex::default();
+            index.index(&lists);
+            index.evaluate_with(&law, &cloud, 1e-4, false);
+            let scalar = index.wrenches.clone();
+            index.evaluate_with(&law, &cloud, 1e-4, crate::numerics::has_avx());
+            for (k, (a, b)) in scalar.iter().zip(&index.wrenches).enumerate() {
+                assert_eq!(
+                    (a.0.map(f64::to_bits), a.1.map(f64::to_bits)),
+                    (b.0.map(f64::to_bits), b.1.map(f64::to_bits)),
+                    "pair {k}: {:?}",
+                    index.pairs[k]
+                );
             }
         }
     }

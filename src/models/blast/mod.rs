@@ -12,6 +12,7 @@
 //! - `observe`, `snapshot`: observables and snapshot writers; `study`: the study model.
 
 pub mod all_pairs;
+pub mod bond_lanes;
 pub mod bonds;
 pub mod cloud;
 pub mod explicit;
