@@ -30,29 +30,33 @@ pub struct BondIndex {
     pair_of: Vec<Vec<u32>>,
     /// Wrench on the pair's first particle, N and N·m.
     wrenches: Vec<Wrench>,
+    /// Scratch of `index`: each particle's first upper pair, and its upper pairs met so far.
+    first_upper: Vec<u32>,
+    cursor: Vec<u32>,
 }
 
 impl BondIndex {
-    /// Re-indexes the bond lists (each ascending, j in i's list iff i in j's).
+    /// Re-indexes the bond lists (each ascending, j in i's list iff i in j's). In one pass:
+    /// the pairs (j, i) that i meets below itself are j's upper pairs, numbered from j's
+    /// first in ascending order of i, so a cursor per particle finds them.
     pub fn index(&mut self, lists: &[Vec<(u32, f64)>]) {
         self.pairs.clear();
         self.pair_of.resize(lists.len(), Vec::new());
-        for (slots, list) in self.pair_of.iter_mut().zip(lists) {
+        self.first_upper.clear();
+        self.cursor.clear();
+        self.cursor.resize(lists.len(), 0);
+        for (i, (list, slots)) in lists.iter().zip(&mut self.pair_of).enumerate() {
+            self.first_upper.push(self.pairs.len() as u32);
             slots.clear();
-            slots.resize(list.len(), u32::MAX);
-        }
-        for (i, list) in lists.iter().enumerate() {
-            for (k, &(j, area)) in list.iter().enumerate() {
-                if (j as usize) < i {
-                    continue;
-                }
-                let pair = self.pairs.len() as u32;
-                self.pairs.push((i as u32, j, area));
-                self.pair_of[i][k] = pair;
-                let back = lists[j as usize]
-                    .binary_search_by_key(&(i as u32), |&(b, _)| b)
-                    .expect("bond lists are symmetric");
-                self.pair_of[j as usize][back] = pair;
+            for &(j, area) in list {
+                let j_at = j as usize;
+                slots.push(if j_at < i {
+                    self.cursor[j_at] += 1;
+                    self.first_upper[j_at] + self.cursor[j_at] - 1
+                } else {
+                    self.pairs.push((i as u32, j, area));
+                    self.pairs.len() as u32 - 1
+                });
             }
         }
         self.wrenches

@@ -227,16 +227,23 @@ impl Interactor {
             .with_min_len(CHUNK)
             .map(|(i, list)| {
                 let before = list.len();
+                // the bonds before this call and the contacts both ascend: one merged walk
+                // skips the bonded partners before any distance is computed
+                let mut bonded = 0;
                 for &j in contacts.of(i) {
+                    while bonded < before && list[bonded].0 < j {
+                        bonded += 1;
+                    }
+                    if bonded < before && list[bonded].0 == j {
+                        continue;
+                    }
                     let d = positions[j as usize] - positions[i];
                     if clearly_beyond(&d, reach) {
                         continue;
                     }
                     let dist = d.norm();
                     let strain = (2.0 * radius - dist) / (2.0 * radius);
-                    // the bonds before this call ascend; a listed j occurs once
-                    let known = list[..before].binary_search_by_key(&j, |&(b, _)| b).is_ok();
-                    if strain >= threshold && !known {
+                    if strain >= threshold {
                         list.push((j, contact_area(radius, dist)));
                     }
                 }
