@@ -12,9 +12,10 @@
 //! is of order one at contact; the law's coefficients are scaled to at most one
 //! (A_k = α_k / L^k, both divided by the larger) and applied in double precision at the
 //! gather, which also sums each particle's tile results in double precision. Every operation
-//! is IEEE single precision (square root and division correctly rounded, nothing fused), so
-//! the AVX lanes give the portable loop's bits and the result does not depend on the machine
-//! or the thread count. Pairs are summed in tiles as in [`crate::numerics::tiled_pairs`]:
+//! is IEEE single precision (square root and division correctly rounded; the sums of
+//! squares and the accumulations fused multiply-adds, rounded once, in the lanes and in the
+//! portable loop alike), so the AVX lanes give the portable loop's bits and the result does
+//! not depend on the machine or the thread count. Pairs are summed in tiles as in [`crate::numerics::tiled_pairs`]:
 //! each unordered pair once (action = reaction within a tile pair), tile results combined in
 //! tile order.
 
@@ -64,7 +65,7 @@ impl SinglePairs {
         out: &mut [Vector3<f64>],
     ) {
         let scale = self.load(law, positions, charge_per_mass);
-        self.fill(crate::numerics::has_avx());
+        self.fill(has_avx_fma());
         self.gather(scale, out);
     }
 
@@ -117,7 +118,7 @@ impl SinglePairs {
         self.pairs.par_iter_mut().for_each(|pair| {
             #[cfg(target_arch = "x86_64")]
             if avx {
-                // SAFETY: `avx` is true only where the processor has AVX.
+                // SAFETY: `avx` is true only where the processor has AVX and FMA.
                 return unsafe { tile_pair_avx(at, c, pair) };
             }
             #[cfg(not(target_arch = "x86_64"))]
@@ -160,13 +161,23 @@ fn bounding_box_centre(positions: &[Vector3<f64>]) -> Vector3<f64> {
 }
 
 /// The pair term's scale for the separation d (scaled): inv² (c1 − c2 inv), zero at d = 0;
-/// the term is d times it.
+/// the term is d times it. Fused multiply-adds where the lanes use them (`mul_add` rounds
+/// once, as the FMA instruction does).
 #[inline(always)]
 fn pair_scale(d: [f32; 3], (c1, c2): (f32, f32)) -> f32 {
-    let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    let r2 = d[2].mul_add(d[2], d[1].mul_add(d[1], d[0] * d[0]));
     let reciprocal = 1.0 / r2.sqrt();
     let inv = if r2 > 0.0 { reciprocal } else { 0.0 };
-    inv * inv * (c1 - c2 * inv)
+    inv * inv * (-c2).mul_add(inv, c1)
+}
+
+/// Whether the processor has AVX and FMA (the lanes' instructions).
+fn has_avx_fma() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx")
+        && std::arch::is_x86_feature_detected!("fma");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// One tile pair, portable: i gains d s c_j and j loses d s c_i (the signs c = ±1 folded
@@ -184,8 +195,8 @@ fn tile_pair(at: &[Vec<f32>; 4], c: (f32, f32), pair: &mut TilePair) {
             let s = pair_scale(d, c);
             let (on_i, on_j) = (s * at[3][j], s * at[3][i]);
             for ((lanes, side), d) in acc.iter_mut().zip(&mut pair.on_second).zip(d) {
-                lanes[b % LANES] += d * on_i;
-                side[b] -= d * on_j;
+                lanes[b % LANES] = d.mul_add(on_i, lanes[b % LANES]);
+                side[b] = (-d).mul_add(on_j, side[b]);
             }
         }
         for (side, lanes) in pair.on_first.iter_mut().zip(acc) {
@@ -201,7 +212,7 @@ fn reduce(a: [f32; LANES]) -> f32 {
 
 /// [`tile_pair`] on eight AVX lanes: the same operations in the same order.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
+#[target_feature(enable = "avx,fma")]
 unsafe fn tile_pair_avx(at: &[Vec<f32>; 4], (c1, c2): (f32, f32), pair: &mut TilePair) {
     let len = at[0].len();
     let (first, second) = (tile(pair.tiles.0, len), tile(pair.tiles.1, len));
@@ -218,24 +229,22 @@ unsafe fn tile_pair_avx(at: &[Vec<f32>; 4], (c1, c2): (f32, f32), pair: &mut Til
                 .each_ref()
                 .map(|v| unsafe { _mm256_loadu_ps(v[j..j + 8].as_ptr()) });
             let d: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(other[k], own[k]));
-            let r2 = _mm256_add_ps(
-                _mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
-                _mm256_mul_ps(d[2], d[2]),
+            let r2 = _mm256_fmadd_ps(
+                d[2],
+                d[2],
+                _mm256_fmadd_ps(d[1], d[1], _mm256_mul_ps(d[0], d[0])),
             );
             let reciprocal = _mm256_div_ps(one, _mm256_sqrt_ps(r2));
             let inv = _mm256_and_ps(reciprocal, _mm256_cmp_ps::<_CMP_GT_OQ>(r2, zero));
-            let s = _mm256_mul_ps(
-                _mm256_mul_ps(inv, inv),
-                _mm256_sub_ps(c1, _mm256_mul_ps(c2, inv)),
-            );
+            let s = _mm256_mul_ps(_mm256_mul_ps(inv, inv), _mm256_fnmadd_ps(c2, inv, c1));
             let (on_i, on_j) = (_mm256_mul_ps(s, other[3]), _mm256_mul_ps(s, own[3]));
             for ((lanes, side), d) in acc.iter_mut().zip(&mut pair.on_second).zip(d) {
-                *lanes = _mm256_add_ps(*lanes, _mm256_mul_ps(d, on_i));
+                *lanes = _mm256_fmadd_ps(d, on_i, *lanes);
                 let slot = &mut side[b..b + 8];
                 // SAFETY: `slot` holds 8 f32.
                 unsafe {
                     let running = _mm256_loadu_ps(slot.as_ptr());
-                    let next = _mm256_sub_ps(running, _mm256_mul_ps(d, on_j));
+                    let next = _mm256_fnmadd_ps(d, on_j, running);
                     _mm256_storeu_ps(slot.as_mut_ptr(), next);
                 }
             }
@@ -313,7 +322,7 @@ mod tests {
     /// machine's vector width.
     #[test]
     fn avx_and_portable_single_sums_are_identical() {
-        if !crate::numerics::has_avx() {
+        if !has_avx_fma() {
             return;
         }
         let mut p = BlastParams::source_example();
