@@ -26,10 +26,19 @@ use rayon::prelude::*;
 use std::arch::x86_64::*;
 
 use super::pairs::PairLaw;
-use crate::numerics::tiled_pairs::{pair_index, tile, TILE};
+use crate::numerics::tiled_pairs::pair_index;
 
 /// Single-precision lanes of an AVX register (TILE is a multiple).
 const LANES: usize = 8;
+
+/// Particles per tile: twice the double kernel's, since a tile pair's data take half the
+/// bytes, and each particle's eight lanes are reduced once per TILE partners.
+const TILE: usize = 128;
+
+/// The particles of tile `t` in the padded arrays of length `len`.
+fn tile(t: usize, len: usize) -> std::ops::Range<usize> {
+    t * TILE..((t + 1) * TILE).min(len)
+}
 
 /// Where the padding points sit (in diameters): far enough that their pull on the cloud is
 /// finite and tiny, and it is multiplied by their zero sign anyway.
