@@ -113,3 +113,34 @@ fn align_settling_contacts_are_counted_once_per_pair() {
         1e-9
     ));
 }
+
+/// `bench blast` runs the interacting example once per near-field precision and reports each
+/// row's near-field error on its final cloud: zero for the exact sum, positive and below 10⁻⁶
+/// for single precision; an unknown precision is a one-line input error (exit 2) before any
+/// run.
+#[test]
+fn blast_rows_report_each_precision_and_its_near_field_error() {
+    let args = [
+        "blast",
+        "--particles",
+        "200",
+        "--threads",
+        "1",
+        "--interacting-duration",
+        "0.01s",
+        "--near-field-precision",
+        "double,single",
+    ];
+    let rows = bench_rows("blast-precision", &args);
+    let models: Vec<&str> = rows.iter().map(|r| r["model"].as_str().unwrap()).collect();
+    assert_eq!(models, ["free", "interacting double", "interacting single"]);
+    assert!(rows[0]["near_field_error_rms"].is_null());
+    assert_eq!(f(&rows[1], "near_field_error_rms"), 0.0);
+    let single = f(&rows[2], "near_field_error_rms");
+    assert!(single > 0.0 && single < 1e-6, "{single}");
+    let (code, stdout, stderr) = magopt(&["bench", "blast", "--near-field-precision", "half"]);
+    assert_eq!(code, 2, "{stdout}");
+    assert!(stdout.is_empty(), "{stdout}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("\"half\""), "{stderr}");
+}

@@ -16,15 +16,15 @@ use crate::{Error, Result};
 pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
     let duration = parse_quantity(&args.interacting_duration, Dimension::Time, "s")
         .map_err(|e| Error::input(format!("--interacting-duration: {e}")))?;
-    println!(
-        "blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m); near field θ = {}",
-        args.near_field_theta
-    );
     let precisions = args
         .near_field_precision
         .iter()
         .map(|t| precision(t))
         .collect::<Result<Vec<_>>>()?;
+    println!(
+        "blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m); near field θ = {}",
+        args.near_field_theta
+    );
     println!(
         "{:>6} {:>7} {:>19} {:>9} {:>8} {:>9} {:>8} {:>10} {:>16} {:>12} {:>13} {:>10}",
         "N",
