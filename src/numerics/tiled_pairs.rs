@@ -46,19 +46,61 @@ pub trait PairTerm<const C: usize>: Sync {
     unsafe fn term_avx(&self, i: usize, j: usize) -> ([__m256d; C], [__m256d; C]);
 }
 
-/// Results of one tile pair (I ≤ J): on I's particles from J's and, for I < J, on J's from
-/// I's. A diagonal pair (one tile with itself) fills the same way and only `on_first` is read.
+/// Results of one tile pair (I ≤ J) of tiles of N particles, C components of type T: on I's
+/// particles from J's and, for I < J, on J's from I's. A diagonal pair (one tile with itself)
+/// fills the same way and only `on_first` is read.
 #[derive(Debug, Clone)]
-struct TilePair<const C: usize> {
-    tiles: (usize, usize),
-    on_first: [[f64; TILE]; C],
-    on_second: [[f64; TILE]; C],
+pub struct TilePair<T, const N: usize, const C: usize> {
+    /// (I, J).
+    pub tiles: (usize, usize),
+    /// On I's particles, by component and slot.
+    pub on_first: [[T; N]; C],
+    /// On J's particles, by component and slot.
+    pub on_second: [[T; N]; C],
 }
+
+/// Sizes `pairs` to every tile pair of `tiles` tiles, I ≤ J in row-major order (kept when
+/// the count already matches: no allocation between evaluations).
+pub fn size_tile_pairs<T: Copy + Default, const N: usize, const C: usize>(
+    pairs: &mut Vec<TilePair<T, N, C>>,
+    tiles: usize,
+) {
+    if pairs.len() != tiles * (tiles + 1) / 2 {
+        *pairs = (0..tiles)
+            .flat_map(|i| (i..tiles).map(move |j| (i, j)))
+            .map(|tiles| TilePair {
+                tiles,
+                on_first: [[T::default(); N]; C],
+                on_second: [[T::default(); N]; C],
+            })
+            .collect();
+    }
+}
+
+/// The results of particle p (slot p mod N of tile p / N) in each tile pair, in tile order.
+pub fn results_of<T: Copy, const N: usize, const C: usize>(
+    pairs: &[TilePair<T, N, C>],
+    tiles: usize,
+    p: usize,
+) -> impl Iterator<Item = [T; C]> + '_ {
+    let (tile, slot) = (p / N, p % N);
+    (0..tiles).map(move |other| {
+        let side = if other < tile {
+            &pairs[pair_index(tiles, other, tile)].on_second
+        } else {
+            &pairs[pair_index(tiles, tile, other)].on_first
+        };
+        std::array::from_fn(|c| side[c][slot])
+    })
+}
+
+/// A tile pair of the double-precision kernel.
+type Results<const C: usize> = TilePair<f64, TILE, C>;
 
 /// The per-tile-pair buffers, reused between evaluations (no allocation once sized).
 #[derive(Debug, Clone, Default)]
 pub struct TiledPairs<const C: usize> {
-    pairs: Vec<TilePair<C>>,
+    pairs: Vec<Results<C>>,
     tiles: usize,
 }
 
@@ -73,17 +115,7 @@ impl<const C: usize> TiledPairs<C> {
     pub fn fill_with<K: PairTerm<C>>(&mut self, kernel: &K, avx: bool) {
         let n = kernel.count();
         self.tiles = n.div_ceil(TILE);
-        let tiles = self.tiles;
-        if self.pairs.len() != tiles * (tiles + 1) / 2 {
-            self.pairs = (0..tiles)
-                .flat_map(|i| (i..tiles).map(move |j| (i, j)))
-                .map(|tiles| TilePair {
-                    tiles,
-                    on_first: [[0.0; TILE]; C],
-                    on_second: [[0.0; TILE]; C],
-                })
-                .collect();
-        }
+        size_tile_pairs(&mut self.pairs, self.tiles);
         self.pairs.par_iter_mut().for_each(|pair| {
             #[cfg(target_arch = "x86_64")]
             if avx {
@@ -99,16 +131,10 @@ impl<const C: usize> TiledPairs<C> {
     /// Particle p's components over all its partners, its tiles' results combined in tile
     /// order (after [`TiledPairs::fill`]).
     pub fn gather<K: PairTerm<C>>(&self, p: usize) -> [f64; C] {
-        let (tile, slot) = (p / TILE, p % TILE);
         let mut out = [0.0; C];
-        for other in 0..self.tiles {
-            let side = if other < tile {
-                &self.pairs[pair_index(self.tiles, other, tile)].on_second
-            } else {
-                &self.pairs[pair_index(self.tiles, tile, other)].on_first
-            };
+        for result in results_of(&self.pairs, self.tiles, p) {
             for c in 0..C {
-                out[c] = combine::<K, C>(c, out[c], side[c][slot]);
+                out[c] = combine::<K, C>(c, out[c], result[c]);
             }
         }
         out
@@ -128,16 +154,16 @@ fn combine<K: PairTerm<C>, const C: usize>(c: usize, running: f64, new: f64) -> 
     }
 }
 
-/// The particles of tile `t` of n.
-pub fn tile(t: usize, n: usize) -> std::ops::Range<usize> {
-    t * TILE..((t + 1) * TILE).min(n)
+/// The particles of tile `t` of n, tiles of N.
+pub fn tile<const N: usize>(t: usize, n: usize) -> std::ops::Range<usize> {
+    t * N..((t + 1) * N).min(n)
 }
 
 /// Fills one tile pair: each particle a of the first tile combines its terms from the second
 /// tile's particles b (lanes, then the tail); each b gathers its side in the same pass.
 #[inline(always)]
-fn tile_pair<K: PairTerm<C>, const C: usize>(kernel: &K, pair: &mut TilePair<C>, n: usize) {
-    let (first, second) = (tile(pair.tiles.0, n), tile(pair.tiles.1, n));
+fn tile_pair<K: PairTerm<C>, const C: usize>(kernel: &K, pair: &mut Results<C>, n: usize) {
+    let (first, second) = (tile::<TILE>(pair.tiles.0, n), tile::<TILE>(pair.tiles.1, n));
     pair.on_second = [[0.0; TILE]; C];
     let body = second.len() - second.len() % LANES;
     for (a, i) in first.enumerate() {
@@ -162,7 +188,7 @@ fn tile_pair<K: PairTerm<C>, const C: usize>(kernel: &K, pair: &mut TilePair<C>,
 #[inline(always)]
 fn finish<K: PairTerm<C>, const C: usize>(
     kernel: &K,
-    pair: &mut TilePair<C>,
+    pair: &mut Results<C>,
     (a, i): (usize, usize),
     second: std::ops::Range<usize>,
     body: usize,
@@ -186,10 +212,10 @@ fn finish<K: PairTerm<C>, const C: usize>(
 #[target_feature(enable = "avx")]
 unsafe fn tile_pair_avx<K: PairTerm<C>, const C: usize>(
     kernel: &K,
-    pair: &mut TilePair<C>,
+    pair: &mut Results<C>,
     n: usize,
 ) {
-    let (first, second) = (tile(pair.tiles.0, n), tile(pair.tiles.1, n));
+    let (first, second) = (tile::<TILE>(pair.tiles.0, n), tile::<TILE>(pair.tiles.1, n));
     pair.on_second = [[0.0; TILE]; C];
     let body = second.len() - second.len() % LANES;
     for (a, i) in first.enumerate() {
@@ -267,7 +293,7 @@ fn reduce_lanes<K: PairTerm<C>, const C: usize>(c: usize, mut a: [f64; LANES]) -
 
 /// Index of the tile pair (i, j), i ≤ j, among the pairs of `tiles` tiles in row-major order
 /// (row k holds tiles − k pairs).
-pub fn pair_index(tiles: usize, i: usize, j: usize) -> usize {
+fn pair_index(tiles: usize, i: usize, j: usize) -> usize {
     i * tiles - i * i.saturating_sub(1) / 2 + (j - i)
 }
 

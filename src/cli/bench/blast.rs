@@ -9,7 +9,9 @@ use serde_json::json;
 
 use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
 use crate::models::blast::interact::near_field_error;
+use crate::models::blast::study::BlastModel;
 use crate::models::blast::{run as run_blast, BlastParams, Interactions, NearFieldPrecision};
+use crate::study::model::StudyModel;
 use crate::units::{parse_quantity, Dimension};
 use crate::{Error, Result};
 
@@ -120,13 +122,16 @@ fn measure(
     }))
 }
 
-/// The `--near-field-precision` value `text` with its name.
+/// The `--near-field-precision` value `text` with its name, parsed by the parameter's own
+/// declaration (`near_field_precision` in the blast study model).
 fn precision(text: &str) -> Result<(&str, NearFieldPrecision)> {
-    match text.trim() {
-        "double" => Ok(("double", NearFieldPrecision::Double)),
-        "single" => Ok(("single", NearFieldPrecision::Single)),
-        other => Err(Error::input(format!(
-            "--near-field-precision: {other:?} is not allowed (one of: double, single)"
-        ))),
-    }
+    let mut p = BlastParams::source_example();
+    let raw = toml::Value::String(text.trim().to_string());
+    BlastModel.set_from(
+        &mut p,
+        "near_field_precision",
+        &raw,
+        "--near-field-precision",
+    )?;
+    Ok((text.trim(), p.near_field.precision))
 }
