@@ -54,9 +54,9 @@ pair_s=$(lmp_pair_s "$work/log.lammps")
 pair_cpu_s=$(awk -v t="$pair_s" -v u="$(lmp_cpu_use "$work/log.lammps")" 'BEGIN {print t * u}')
 lammps_wall=$(awk -v n=$n -v s=$steps -v t="$pair_s" 'BEGIN {print n * (n - 1) / 2 * s / t}')
 lammps_cpu=$(awk -v n=$n -v s=$steps -v t="$pair_cpu_s" 'BEGIN {print n * (n - 1) / 2 * s / t}')
-row='[.rows[] | select(.model == "interacting")][0]'
+row='[.rows[] | select(.model == "interacting double")][0]'
 magopt_best_of_two "$work/magopt" "$row.near_field_pairs_per_cpu_s" \
-  "$bin" bench blast --threads 1 --interacting-duration 0.02s
+  "$bin" bench blast --threads 1 --interacting-duration 0.02s --near-field-precision double
 magopt_wall=$(jq -r "$row.near_field_pairs_per_s" "$work/magopt.json")
 magopt_cpu=$(jq -r "$row.near_field_pairs_per_cpu_s" "$work/magopt.json")
 echo "blast near field, N = $n, all pairs, 1 core ($(machine))"
