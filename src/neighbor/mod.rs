@@ -14,6 +14,10 @@ use std::ops::Range;
 use nalgebra::SVector;
 use rayon::prelude::*;
 
+mod grid;
+
+use grid::{CellGrid, Query};
+
 /// From this many points on, a build searches in parallel blocks of `BUILD_BLOCK` points.
 const PARALLEL_BUILD_FROM: usize = 1024;
 const BUILD_BLOCK: usize = 256;
@@ -96,17 +100,18 @@ impl<const D: usize> NeighborList<D> {
         let n = positions.len();
         let r_max = radii.iter().cloned().fold(0.0, f64::max);
         let grid = CellGrid::new(positions, radii, 2.0 * r_max + self.skin);
-        let skin = self.skin;
+        let (skin, lanes) = (self.skin, crate::numerics::has_avx());
         let block = |range: Range<usize>| {
             let (mut found, mut counts) = (Vec::new(), Vec::with_capacity(range.len()));
             for i in range {
                 let start = found.len();
-                grid.for_each_near(&positions[i], |j, q, r_j| {
-                    let cutoff = radii[i] + r_j + skin;
-                    if j != i && (q - positions[i]).norm_squared() < cutoff * cutoff {
-                        found.push(j as u32);
-                    }
-                });
+                let query = Query {
+                    point: positions[i],
+                    index: i as u32,
+                    radius: radii[i],
+                    skin,
+                };
+                grid.find_near(&query, lanes, &mut found);
                 found[start..].sort_unstable();
                 counts.push(found.len() - start);
             }
@@ -134,116 +139,6 @@ impl<const D: usize> NeighborList<D> {
         self.reference.clear();
         self.reference.extend_from_slice(positions);
         self.builds += 1;
-    }
-}
-
-/// Particles binned into cubic cells (counting sort), for O(1) near-point queries.
-struct CellGrid<const D: usize> {
-    origin: SVector<f64, D>,
-    cell: f64,
-    dims: [usize; D],
-    start: Vec<usize>,
-    /// Each cell's points in turn: index, position and radius (the search reads them in runs,
-    /// without going back to the input arrays).
-    members: Vec<(usize, SVector<f64, D>, f64)>,
-}
-
-impl<const D: usize> CellGrid<D> {
-    fn new(positions: &[SVector<f64, D>], radii: &[f64], cell: f64) -> Self {
-        let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
-        let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
-        for p in positions {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
-        if positions.is_empty() {
-            lo = SVector::zeros();
-            hi = SVector::zeros();
-        }
-        // Cells of at least `cell`; coarser where a sparse, spread-out set would otherwise
-        // need more cells than about 4 per point (larger cells still hold every pair within
-        // `cell` in the 3^D around a point).
-        let target = (4 * positions.len()).max(64) as f64;
-        let mut cell = cell;
-        let count = |cell: f64| {
-            (0..D)
-                .map(|a| ((hi[a] - lo[a]) / cell).floor() + 1.0)
-                .product::<f64>()
-        };
-        while count(cell) > target {
-            cell *= 2.0;
-        }
-        let dims = std::array::from_fn(|a| (((hi[a] - lo[a]) / cell).floor() as usize + 1).max(1));
-        let mut grid = Self {
-            origin: lo,
-            cell,
-            dims,
-            start: vec![0; dims.iter().product::<usize>() + 1],
-            members: vec![(0, SVector::zeros(), 0.0); positions.len()],
-        };
-        let index: Vec<usize> = positions
-            .iter()
-            .map(|p| grid.flat(grid.coords(p)))
-            .collect();
-        for &c in &index {
-            grid.start[c + 1] += 1;
-        }
-        for c in 1..grid.start.len() {
-            grid.start[c] += grid.start[c - 1];
-        }
-        let mut fill = grid.start.clone();
-        for (i, &c) in index.iter().enumerate() {
-            grid.members[fill[c]] = (i, positions[i], radii[i]);
-            fill[c] += 1;
-        }
-        grid
-    }
-
-    fn coords(&self, p: &SVector<f64, D>) -> [usize; D] {
-        std::array::from_fn(|a| {
-            // truncation is the floor of the clamped (non-negative) offset, without the libm
-            // call `floor` is on x86-64's baseline (no SSE4.1 rounding instruction)
-            let c = ((p[a] - self.origin[a]) / self.cell).max(0.0);
-            (c as usize).min(self.dims[a] - 1)
-        })
-    }
-
-    /// Row-major cell index, axis 0 fastest.
-    fn flat(&self, c: [usize; D]) -> usize {
-        (0..D).rev().fold(0, |acc, a| acc * self.dims[a] + c[a])
-    }
-
-    /// Visits the members of the 3^D cells around the cell of `p`, a run of cells along
-    /// axis 0 at a time (their members are contiguous).
-    fn for_each_near(
-        &self,
-        p: &SVector<f64, D>,
-        mut visit: impl FnMut(usize, &SVector<f64, D>, f64),
-    ) {
-        let centre = self.coords(p);
-        let lo: [usize; D] = std::array::from_fn(|a| centre[a].saturating_sub(1));
-        let hi: [usize; D] = std::array::from_fn(|a| (centre[a] + 1).min(self.dims[a] - 1));
-        let mut c = lo;
-        loop {
-            let first = self.flat(c);
-            let run = first..first + hi[0] - lo[0] + 1;
-            for (j, q, r) in &self.members[self.start[run.start]..self.start[run.end]] {
-                visit(*j, q, *r);
-            }
-            // odometer step over the box lo..=hi, axes 1.. (axis 0 is the run)
-            let mut a = 1;
-            loop {
-                if a >= D {
-                    return;
-                }
-                if c[a] < hi[a] {
-                    c[a] += 1;
-                    break;
-                }
-                c[a] = lo[a];
-                a += 1;
-            }
-        }
     }
 }
 

@@ -1,0 +1,267 @@
+//! The cell grid behind [`super::NeighborList`]: points binned into cubic cells (counting
+//! sort), stored cell by cell as structure of arrays, and searched a run of cells along axis
+//! 0 at a time, four candidates per AVX instruction where the processor has it. Both forms
+//! compute every candidate's squared distance and reach with the same operations in the
+//! same order (none fused), so they find the same pairs.
+
+use std::ops::Range;
+
+use nalgebra::SVector;
+
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
+
+/// Candidates per AVX instruction; the arrays carry `LANES − 1` padding points so a load
+/// that starts inside a run stays in bounds.
+const LANES: usize = 4;
+
+/// Points binned into cubic cells, for O(1) near-point queries.
+pub(super) struct CellGrid<const D: usize> {
+    origin: SVector<f64, D>,
+    cell: f64,
+    dims: [usize; D],
+    start: Vec<usize>,
+    /// Each cell's points in turn: index, coordinates by axis and radius (a run of cells is
+    /// read without going back to the input arrays).
+    index: Vec<u32>,
+    coords: [Vec<f64>; D],
+    radii: Vec<f64>,
+}
+
+/// A query: the point, its index (never its own neighbour), its radius and the skin.
+pub(super) struct Query<const D: usize> {
+    pub point: SVector<f64, D>,
+    pub index: u32,
+    pub radius: f64,
+    pub skin: f64,
+}
+
+impl<const D: usize> CellGrid<D> {
+    /// Bins `positions` (with their `radii`) into cells of at least `cell`.
+    pub(super) fn new(positions: &[SVector<f64, D>], radii: &[f64], cell: f64) -> Self {
+        let (lo, hi) = bounds(positions);
+        // Cells of at least `cell`; coarser where a sparse, spread-out set would otherwise
+        // need more cells than about 4 per point (larger cells still hold every pair within
+        // `cell` in the 3^D around a point).
+        let target = (4 * positions.len()).max(64) as f64;
+        let mut cell = cell;
+        let count = |cell: f64| {
+            (0..D)
+                .map(|a| ((hi[a] - lo[a]) / cell).floor() + 1.0)
+                .product::<f64>()
+        };
+        while count(cell) > target {
+            cell *= 2.0;
+        }
+        let dims = std::array::from_fn(|a| (((hi[a] - lo[a]) / cell).floor() as usize + 1).max(1));
+        let padded = positions.len() + LANES - 1;
+        let mut grid = Self {
+            origin: lo,
+            cell,
+            dims,
+            start: vec![0; dims.iter().product::<usize>() + 1],
+            index: vec![u32::MAX; padded],
+            coords: std::array::from_fn(|_| vec![f64::NAN; padded]),
+            radii: vec![f64::NAN; padded],
+        };
+        let cells: Vec<usize> = positions
+            .iter()
+            .map(|p| grid.flat(grid.coords(p)))
+            .collect();
+        for &c in &cells {
+            grid.start[c + 1] += 1;
+        }
+        for c in 1..grid.start.len() {
+            grid.start[c] += grid.start[c - 1];
+        }
+        let mut fill = grid.start.clone();
+        for (i, &c) in cells.iter().enumerate() {
+            let slot = fill[c];
+            grid.index[slot] = i as u32;
+            for a in 0..D {
+                grid.coords[a][slot] = positions[i][a];
+            }
+            grid.radii[slot] = radii[i];
+            fill[c] += 1;
+        }
+        grid
+    }
+
+    fn coords(&self, p: &SVector<f64, D>) -> [usize; D] {
+        std::array::from_fn(|a| {
+            // truncation is the floor of the clamped (non-negative) offset, without the libm
+            // call `floor` is on x86-64's baseline (no SSE4.1 rounding instruction)
+            let c = ((p[a] - self.origin[a]) / self.cell).max(0.0);
+            (c as usize).min(self.dims[a] - 1)
+        })
+    }
+
+    /// Row-major cell index, axis 0 fastest.
+    fn flat(&self, c: [usize; D]) -> usize {
+        (0..D).rev().fold(0, |acc, a| acc * self.dims[a] + c[a])
+    }
+
+    /// Pushes onto `found` every point j ≠ `q.index` in the 3^D cells around `q.point` with
+    /// |x_j − x_q|² < (R_q + R_j + skin)², in cell order; `lanes` chooses the AVX form.
+    pub(super) fn find_near(&self, q: &Query<D>, lanes: bool, found: &mut Vec<u32>) {
+        #[cfg(target_arch = "x86_64")]
+        if lanes {
+            // SAFETY: `lanes` is set only where the processor has AVX
+            return unsafe { self.find_near_avx(q, found) };
+        }
+        let _ = lanes;
+        self.for_each_run(&q.point, |run| self.run_portable(run, q, found));
+    }
+
+    /// Calls `visit` with the members of the 3^D cells around the cell of `p`, a run of
+    /// cells along axis 0 at a time (their members are contiguous).
+    #[inline(always)]
+    fn for_each_run(&self, p: &SVector<f64, D>, mut visit: impl FnMut(Range<usize>)) {
+        let centre = self.coords(p);
+        let lo: [usize; D] = std::array::from_fn(|a| centre[a].saturating_sub(1));
+        let hi: [usize; D] = std::array::from_fn(|a| (centre[a] + 1).min(self.dims[a] - 1));
+        let mut c = lo;
+        loop {
+            let first = self.flat(c);
+            visit(self.start[first]..self.start[first + hi[0] - lo[0] + 1]);
+            // odometer step over the box lo..=hi, axes 1.. (axis 0 is the run)
+            let mut a = 1;
+            loop {
+                if a >= D {
+                    return;
+                }
+                if c[a] < hi[a] {
+                    c[a] += 1;
+                    break;
+                }
+                c[a] = lo[a];
+                a += 1;
+            }
+        }
+    }
+
+    /// [`CellGrid::find_near`] over one run, a candidate at a time.
+    fn run_portable(&self, run: Range<usize>, q: &Query<D>, found: &mut Vec<u32>) {
+        for k in run {
+            let mut d2 = 0.0;
+            for a in 0..D {
+                let d = self.coords[a][k] - q.point[a];
+                d2 = if a == 0 { d * d } else { d2 + d * d };
+            }
+            let reach = q.radius + self.radii[k] + q.skin;
+            if d2 < reach * reach && self.index[k] != q.index {
+                found.push(self.index[k]);
+            }
+        }
+    }
+
+    /// [`CellGrid::find_near`] four candidates at a time: lanes past a run's end are masked
+    /// off (the padding keeps their loads in bounds).
+    ///
+    /// # Safety
+    /// Only where the processor has AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn find_near_avx(&self, q: &Query<D>, found: &mut Vec<u32>) {
+        let point: [__m256d; D] = std::array::from_fn(|a| _mm256_set1_pd(q.point[a]));
+        let (radius, skin) = (_mm256_set1_pd(q.radius), _mm256_set1_pd(q.skin));
+        self.for_each_run(&q.point, |run| {
+            found.reserve(run.len());
+            let mut k = run.start;
+            while k < run.end {
+                // SAFETY: k < run.end ≤ N and every array holds N + LANES − 1 values
+                let load = |values: &[f64]| unsafe { _mm256_loadu_pd(values.as_ptr().add(k)) };
+                let mut d2 = _mm256_setzero_pd();
+                for a in 0..D {
+                    let d = _mm256_sub_pd(load(&self.coords[a]), point[a]);
+                    let square = _mm256_mul_pd(d, d);
+                    d2 = if a == 0 {
+                        square
+                    } else {
+                        _mm256_add_pd(d2, square)
+                    };
+                }
+                let reach = _mm256_add_pd(_mm256_add_pd(radius, load(&self.radii)), skin);
+                let hit = _mm256_cmp_pd::<_CMP_LT_OQ>(d2, _mm256_mul_pd(reach, reach));
+                let valid = (1u32 << (run.end - k).min(LANES)) - 1;
+                let mut mask = _mm256_movemask_pd(hit) as u32 & valid;
+                while mask != 0 {
+                    let j = self.index[k + mask.trailing_zeros() as usize];
+                    if j != q.index {
+                        // SAFETY: reserved above for the whole run
+                        unsafe { push_reserved(found, j) };
+                    }
+                    mask &= mask - 1;
+                }
+                k += LANES;
+            }
+        });
+    }
+}
+
+/// `found.push(j)` without the growth check.
+///
+/// # Safety
+/// `found` has spare capacity.
+#[cfg(target_arch = "x86_64")]
+unsafe fn push_reserved(found: &mut Vec<u32>, j: u32) {
+    let len = found.len();
+    debug_assert!(len < found.capacity());
+    // SAFETY: the caller guarantees the capacity; the slot is written before it is counted
+    unsafe {
+        found.as_mut_ptr().add(len).write(j);
+        found.set_len(len + 1);
+    }
+}
+
+/// The bounding box of `positions` (the origin for none).
+fn bounds<const D: usize>(positions: &[SVector<f64, D>]) -> (SVector<f64, D>, SVector<f64, D>) {
+    if positions.is_empty() {
+        return (SVector::zeros(), SVector::zeros());
+    }
+    let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
+    let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
+    for p in positions {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+    use rand::{RngExt, SeedableRng};
+
+    /// Every point's search in both forms, on a bed with pairs exactly at reach, a NaN point
+    /// and runs of every length modulo four.
+    #[test]
+    fn avx_and_portable_searches_find_the_same_points() {
+        if !crate::numerics::has_avx() {
+            return;
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut positions: Vec<Vector3<f64>> = (0..700)
+            .map(|_| Vector3::from_fn(|_, _| (rng.random::<f64>() * 12.0).round() * 0.5))
+            .collect();
+        positions[17] = Vector3::new(f64::NAN, 1.0, 2.0);
+        let radii: Vec<f64> = (0..700).map(|k| 0.25 * (1 + k % 3) as f64).collect();
+        let grid = CellGrid::new(&positions, &radii, 2.0 * 0.75 + 0.5);
+        let mut hits = 0;
+        for (i, p) in positions.iter().enumerate() {
+            let q = Query {
+                point: *p,
+                index: i as u32,
+                radius: radii[i],
+                skin: 0.5,
+            };
+            let (mut portable, mut avx) = (Vec::new(), Vec::new());
+            grid.find_near(&q, false, &mut portable);
+            grid.find_near(&q, true, &mut avx);
+            assert_eq!(portable, avx, "point {i}");
+            hits += avx.len();
+        }
+        assert!(hits > 700, "{hits} hits");
+    }
+}
