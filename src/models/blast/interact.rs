@@ -36,6 +36,9 @@ pub struct Interactor {
     near_forces: Vec<Vector3<f64>>,
     /// Bonded partners of each particle with the contact area at bonding, ascending.
     bonds: Vec<Vec<(u32, f64)>>,
+    /// Each particle's contact-list partners that are not bonded to it, ascending: kept
+    /// with the list and the bonds, so the force and bond searches skip no bonded partner.
+    unbonded: Vec<Vec<u32>>,
     /// The bonded pairs once each, with their wrenches.
     bond_index: BondIndex,
     radii: Vec<f64>,
@@ -63,6 +66,7 @@ impl Interactor {
             all_pairs,
             near_forces: vec![Vector3::zeros(); n],
             bonds: vec![Vec::new(); n],
+            unbonded: vec![Vec::new(); n],
             bond_index: BondIndex::default(),
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
@@ -99,7 +103,7 @@ impl Interactor {
     ) {
         let flags = self.law.flags;
         if flags.contact || flags.damping || flags.friction || flags.bonding {
-            self.contacts.update(&cloud.positions, &self.radii);
+            self.update_contacts(cloud);
         }
         self.prepare_near_field(cloud);
         self.bond_index.evaluate(&self.law, cloud, dt);
@@ -110,6 +114,30 @@ impl Interactor {
             .enumerate()
             .with_min_len(CHUNK)
             .for_each(|(i, (f, m))| (*f, *m) = this.on_particle(cloud, i, dt));
+    }
+
+    /// Rebuilds the contact list if a particle has moved far enough, and then each
+    /// particle's unbonded contacts (a merged walk: both lists ascend).
+    fn update_contacts(&mut self, cloud: &Cloud) {
+        if !self.contacts.update(&cloud.positions, &self.radii) {
+            return;
+        }
+        let contacts = &self.contacts;
+        self.unbonded
+            .par_iter_mut()
+            .zip(&self.bonds)
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(i, (row, bonds))| {
+                row.clear();
+                let mut bonded = bonds.iter().map(|&(b, _)| b).peekable();
+                for &j in contacts.of(i) {
+                    while bonded.next_if(|&b| b < j).is_some() {}
+                    if bonded.peek() != Some(&j) {
+                        row.push(j);
+                    }
+                }
+            });
     }
 
     /// Updates the near field's cut-off list, or sums it by the tree or the all-pairs kernel.
@@ -155,13 +183,8 @@ impl Interactor {
         let me = body(i);
         let flags = self.law.flags;
         if flags.contact || flags.damping || flags.friction {
-            // both lists ascend: one merged walk skips the bonded partners
-            let mut bonded = self.bonds[i].iter().map(|&(b, _)| b).peekable();
-            for &j in self.contacts.of(i) {
-                while bonded.next_if(|&b| b < j).is_some() {}
-                if bonded.peek() == Some(&j) {
-                    continue; // bonded pairs are handled below, touching or not
-                }
+            // bonded pairs are handled below, touching or not
+            for &j in &self.unbonded[i] {
                 let (f, m) = self.law.contact(&me, &body(j as usize), None, dt);
                 force += f;
                 moment += m;
@@ -214,29 +237,21 @@ impl Interactor {
         if !self.law.flags.bonding {
             return 0;
         }
-        self.contacts.update(&cloud.positions, &self.radii);
+        self.update_contacts(cloud);
         let radius = self.law.radius;
         let threshold = self.law.contact.bond_strain;
         // strain ≥ ε* needs dist ≤ 2R(1 − ε*): pairs clearly farther skip the square root
         let reach = (2.0 * radius * (1.0 - threshold)).max(0.0);
-        let (contacts, positions) = (&self.contacts, &cloud.positions);
+        let positions = &cloud.positions;
         let formed: usize = self
             .bonds
             .par_iter_mut()
+            .zip(&mut self.unbonded)
             .enumerate()
             .with_min_len(CHUNK)
-            .map(|(i, list)| {
+            .map(|(i, (list, unbonded))| {
                 let before = list.len();
-                // the bonds before this call and the contacts both ascend: one merged walk
-                // skips the bonded partners before any distance is computed
-                let mut bonded = 0;
-                for &j in contacts.of(i) {
-                    while bonded < before && list[bonded].0 < j {
-                        bonded += 1;
-                    }
-                    if bonded < before && list[bonded].0 == j {
-                        continue;
-                    }
+                for &j in unbonded.iter() {
                     let d = positions[j as usize] - positions[i];
                     if clearly_beyond(&d, reach) {
                         continue;
@@ -248,6 +263,9 @@ impl Interactor {
                     }
                 }
                 if list.len() > before {
+                    // the new partners ascend, as the unbonded contacts they came from
+                    let mut new = list[before..].iter().map(|&(j, _)| j).peekable();
+                    unbonded.retain(|&j| new.next_if_eq(&j).is_none());
                     list.sort_unstable_by_key(|&(b, _)| b);
                 }
                 list.len() - before
