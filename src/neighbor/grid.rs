@@ -165,8 +165,11 @@ impl<const D: usize> CellGrid<D> {
     unsafe fn find_near_avx(&self, q: &Query<D>, found: &mut Vec<u32>) {
         let point: [__m256d; D] = std::array::from_fn(|a| _mm256_set1_pd(q.point[a]));
         let (radius, skin) = (_mm256_set1_pd(q.radius), _mm256_set1_pd(q.skin));
+        let me = _mm_set1_epi32(q.index as i32);
         self.for_each_run(&q.point, |run| {
-            found.reserve(run.len());
+            // each step writes LANES slots and keeps its hits: room for the run and one step
+            found.reserve(run.len() + LANES);
+            let (mut len, out) = (found.len(), found.as_mut_ptr());
             let mut k = run.start;
             while k < run.end {
                 // SAFETY: k < run.end ≤ N and every array holds N + LANES − 1 values
@@ -183,36 +186,43 @@ impl<const D: usize> CellGrid<D> {
                 }
                 let reach = _mm256_add_pd(_mm256_add_pd(radius, load(&self.radii)), skin);
                 let hit = _mm256_cmp_pd::<_CMP_LT_OQ>(d2, _mm256_mul_pd(reach, reach));
-                let valid = (1u32 << (run.end - k).min(LANES)) - 1;
-                let mut mask = _mm256_movemask_pd(hit) as u32 & valid;
-                while mask != 0 {
-                    let j = self.index[k + mask.trailing_zeros() as usize];
-                    if j != q.index {
-                        // SAFETY: reserved above for the whole run
-                        unsafe { push_reserved(found, j) };
-                    }
-                    mask &= mask - 1;
+                // SAFETY: as above, `index` holds N + LANES − 1 values
+                let js = unsafe { _mm_loadu_si128(self.index.as_ptr().add(k).cast()) };
+                let own = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(js, me))) as usize;
+                let valid = (1usize << (run.end - k).min(LANES)) - 1;
+                let mask = _mm256_movemask_pd(hit) as usize & valid & !own;
+                // branch-free: the hits' slots in order, then the length past them
+                for (t, &lane) in HIT_LANES[mask].iter().enumerate() {
+                    // SAFETY: len + t < len + LANES ≤ the capacity reserved above
+                    unsafe { out.add(len + t).write(self.index[k + lane as usize]) };
                 }
+                len += mask.count_ones() as usize;
                 k += LANES;
             }
+            // SAFETY: slots up to `len` are written hits
+            unsafe { found.set_len(len) };
         });
     }
 }
 
-/// `found.push(j)` without the growth check.
-///
-/// # Safety
-/// `found` has spare capacity.
+/// For each mask of four lanes, its set lanes in order (then zeros): the hits' slots.
 #[cfg(target_arch = "x86_64")]
-unsafe fn push_reserved(found: &mut Vec<u32>, j: u32) {
-    let len = found.len();
-    debug_assert!(len < found.capacity());
-    // SAFETY: the caller guarantees the capacity; the slot is written before it is counted
-    unsafe {
-        found.as_mut_ptr().add(len).write(j);
-        found.set_len(len + 1);
+const HIT_LANES: [[u8; LANES]; 1 << LANES] = {
+    let mut table = [[0; LANES]; 1 << LANES];
+    let mut mask = 0;
+    while mask < 1 << LANES {
+        let (mut lane, mut count) = (0, 0);
+        while lane < LANES {
+            if mask & (1 << lane) != 0 {
+                table[mask][count] = lane as u8;
+                count += 1;
+            }
+            lane += 1;
+        }
+        mask += 1;
     }
-}
+    table
+};
 
 /// The bounding box of `positions` (the origin for none).
 fn bounds<const D: usize>(positions: &[SVector<f64, D>]) -> (SVector<f64, D>, SVector<f64, D>) {
