@@ -7,7 +7,9 @@
 //! R_i = r_c/2, skin = r_v − r_c; a plain cell list is a list rebuilt every step with skin 0.
 //! A list may also be rebuilt on another displacement than half its skin
 //! ([`NeighborList::with_rebuild_distance`]): then pairs can enter R_i + R_j unseen between
-//! builds, which is what a list summed without a cut-off (de Paula 2025, §5.1) does.
+//! builds, which is what a list summed without a cut-off (de Paula 2025, §5.1) does. Or it may
+//! wait until the displacements spread over the skin ([`NeighborList::rebuilt_on_spread`]),
+//! which misses no pair either and lasts longer where part of the set moves as one.
 
 use std::ops::Range;
 
@@ -39,7 +41,7 @@ enum Rebuild {
     /// When some particle's displacement since the build differs by more than half the skin
     /// from c, the centre of the displacements' bounding box, and from zero: two particles
     /// have then approached each other by at most |Δ_i − c| + |Δ_j − c| ≤ the skin, so no
-    /// pair within R_i + R_j is missed. Never sooner than half-skin rule (c = 0 is also
+    /// pair within R_i + R_j is missed. Never sooner than the half-skin rule (c = 0 is also
     /// tried), and twice as late where part of the set moves as one (a bed falling onto its
     /// settled floor: c is then half the fall).
     Spread,
