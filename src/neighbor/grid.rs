@@ -78,8 +78,8 @@ impl<const D: usize> CellGrid<D> {
         for (i, &c) in cells.iter().enumerate() {
             let slot = fill[c];
             grid.index[slot] = i as u32;
-            for a in 0..D {
-                grid.coords[a][slot] = positions[i][a];
+            for (axis, &x) in grid.coords.iter_mut().zip(positions[i].iter()) {
+                axis[slot] = x;
             }
             grid.radii[slot] = radii[i];
             fill[c] += 1;
@@ -175,8 +175,8 @@ impl<const D: usize> CellGrid<D> {
                 // SAFETY: k < run.end ≤ N and every array holds N + LANES − 1 values
                 let load = |values: &[f64]| unsafe { _mm256_loadu_pd(values.as_ptr().add(k)) };
                 let mut d2 = _mm256_setzero_pd();
-                for a in 0..D {
-                    let d = _mm256_sub_pd(load(&self.coords[a]), point[a]);
+                for (a, (axis, centre)) in self.coords.iter().zip(point).enumerate() {
+                    let d = _mm256_sub_pd(load(axis), centre);
                     let square = _mm256_mul_pd(d, d);
                     d2 = if a == 0 {
                         square
