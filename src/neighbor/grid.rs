@@ -109,7 +109,8 @@ impl<const D: usize> CellGrid<D> {
             // SAFETY: `lanes` is set only where the processor has AVX
             return unsafe { self.find_near_avx(q, found) };
         }
-        let _ = lanes;
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = lanes; // no AVX form off x86-64
         self.for_each_run(&q.point, |run| self.run_portable(run, q, found));
     }
 

@@ -270,7 +270,7 @@ mod tests {
         assert!(list.update(&moved, &radii));
         // both moving as one never need a rebuild
         let far = Vector3::new(5.0, -7.0, 2.0);
-        let moved: Vec<_> = list.reference.clone().iter().map(|p| p + far).collect();
+        let moved: Vec<_> = list.reference.iter().map(|p| p + far).collect();
         assert!(!list.update(&moved, &radii));
     }
 
