@@ -7,6 +7,9 @@
 use std::ops::Range;
 
 use nalgebra::SVector;
+use rayon::prelude::*;
+
+use crate::numerics::fold_items;
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -14,6 +17,9 @@ use std::arch::x86_64::*;
 /// Candidates per AVX instruction; the arrays carry `LANES − 1` padding points so a load
 /// that starts inside a run stays in bounds.
 const LANES: usize = 4;
+
+/// From this many points on, the points' cells are found on the rayon pool.
+const PARALLEL_FROM: usize = 4096;
 
 /// Points binned into cubic cells, for O(1) near-point queries.
 pub(super) struct CellGrid<const D: usize> {
@@ -64,10 +70,12 @@ impl<const D: usize> CellGrid<D> {
             coords: std::array::from_fn(|_| vec![f64::NAN; padded]),
             radii: vec![f64::NAN; padded],
         };
-        let cells: Vec<usize> = positions
-            .iter()
-            .map(|p| grid.flat(grid.coords(p)))
-            .collect();
+        let cell_of = |p| grid.flat(grid.coords(p));
+        let cells: Vec<usize> = if positions.len() >= PARALLEL_FROM {
+            positions.par_iter().map(cell_of).collect()
+        } else {
+            positions.iter().map(cell_of).collect()
+        };
         for &c in &cells {
             grid.start[c + 1] += 1;
         }
@@ -226,17 +234,14 @@ const HIT_LANES: [[u8; LANES]; 1 << LANES] = {
 };
 
 /// The bounding box of `positions` (the origin for none).
-fn bounds<const D: usize>(positions: &[SVector<f64, D>]) -> (SVector<f64, D>, SVector<f64, D>) {
+fn bounds<const D: usize>(positions: &[SVector<f64, D>]) -> super::Bounds<D> {
     if positions.is_empty() {
         return (SVector::zeros(), SVector::zeros());
     }
-    let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
-    let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
-    for p in positions {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
-    (lo, hi)
+    let far = SVector::<f64, D>::repeat(f64::INFINITY);
+    let corners = |i: usize| (positions[i], positions[i]);
+    let merge = |(lo, hi): super::Bounds<D>, (a, b): super::Bounds<D>| (lo.inf(&a), hi.sup(&b));
+    fold_items(positions.len(), (far, -far), corners, merge)
 }
 
 #[cfg(test)]

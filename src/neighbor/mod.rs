@@ -16,6 +16,8 @@ use std::ops::Range;
 use nalgebra::SVector;
 use rayon::prelude::*;
 
+use crate::numerics::fold_items;
+
 mod grid;
 
 use grid::{CellGrid, Query};
@@ -34,6 +36,9 @@ pub struct NeighborList<const D: usize = 3> {
     rule: Rebuild,
     builds: usize,
 }
+
+/// The lower and upper corners of a bounding box.
+type Bounds<const D: usize> = (SVector<f64, D>, SVector<f64, D>);
 
 /// When a list is rebuilt.
 #[derive(Debug, Clone, Copy)]
@@ -111,9 +116,13 @@ impl<const D: usize> NeighborList<D> {
         if self.reference.len() != positions.len() {
             return true;
         }
-        let moves = || positions.iter().zip(&self.reference).map(|(p, r)| p - r);
+        // scans of every particle, each step: on the pool for large sets (`any`, min and max
+        // give the same answer in any order)
+        let n = positions.len();
+        let moved = |i: usize| positions[i] - self.reference[i];
         let beyond = |c: SVector<f64, D>, limit: f64| {
-            moves().any(|d| (d - c).norm_squared() > limit * limit)
+            let out = |i: usize| (moved(i) - c).norm_squared() > limit * limit;
+            fold_items(n, false, out, |a, b| a || b)
         };
         match self.rule {
             Rebuild::Distance(limit) => beyond(SVector::zeros(), limit),
@@ -123,7 +132,9 @@ impl<const D: usize> NeighborList<D> {
                     return false;
                 }
                 let far = SVector::<f64, D>::repeat(f64::INFINITY);
-                let (lo, hi) = moves().fold((far, -far), |(lo, hi), d| (lo.inf(&d), hi.sup(&d)));
+                let bounds = |i: usize| (moved(i), moved(i));
+                let merge = |(lo, hi): Bounds<D>, (a, b): Bounds<D>| (lo.inf(&a), hi.sup(&b));
+                let (lo, hi) = fold_items(n, (far, -far), bounds, merge);
                 beyond(0.5 * (lo + hi), limit)
             }
         }
@@ -161,19 +172,38 @@ impl<const D: usize> NeighborList<D> {
             vec![block(0..n)]
         };
         self.offsets.clear();
-        self.neighbors.clear();
         self.offsets.push(0);
-        for (found, counts) in blocks {
-            let mut end = self.neighbors.len();
-            for count in counts {
-                end += count;
-                self.offsets.push(end);
-            }
-            self.neighbors.extend_from_slice(&found);
+        let mut end = 0;
+        for count in blocks.iter().flat_map(|(_, counts)| counts) {
+            end += count;
+            self.offsets.push(end);
         }
+        self.concatenate(&blocks, end);
         self.reference.clear();
         self.reference.extend_from_slice(positions);
         self.builds += 1;
+    }
+}
+
+impl<const D: usize> NeighborList<D> {
+    /// Sets the entries to the blocks' found neighbours, `total` of them, one after the
+    /// other, copied on the pool (the length grows without clearing, so only entries beyond
+    /// the last build's are zeroed first).
+    fn concatenate(&mut self, blocks: &[(Vec<u32>, Vec<usize>)], total: usize) {
+        self.neighbors.resize(total, 0);
+        let mut rest = &mut self.neighbors[..];
+        let mut parts = Vec::with_capacity(blocks.len());
+        for (found, _) in blocks {
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(found.len());
+            parts.push((part, found));
+            rest = tail;
+        }
+        let copy = |(part, found): (&mut [u32], &Vec<u32>)| part.copy_from_slice(found);
+        if parts.len() > 1 {
+            parts.into_par_iter().for_each(copy);
+        } else {
+            parts.into_iter().for_each(copy);
+        }
     }
 }
 

@@ -16,6 +16,7 @@ use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
 use super::walls::{Walls, WALL_NORMALS};
 use crate::neighbor::NeighborList;
+use crate::numerics::fold_items;
 use crate::units::MU0;
 
 /// From this many particles on, the per-particle gather runs on the rayon pool.
@@ -385,16 +386,14 @@ impl ForceField {
                 every_step: true,
                 ..
             } => list.len(),
-            Pairs::Cut { list, cutoff2, .. } => (0..n)
-                .map(|i| {
-                    list.of(i)
-                        .iter()
-                        .filter(|&&j| {
-                            (position[i] - position[j as usize]).norm_squared() < *cutoff2
-                        })
-                        .count()
-                })
-                .sum(),
+            Pairs::Cut { list, cutoff2, .. } => {
+                let inside = |i: usize| {
+                    let near =
+                        |&&j: &&u32| (position[i] - position[j as usize]).norm_squared() < *cutoff2;
+                    list.of(i).iter().filter(near).count()
+                };
+                fold_items(n, 0, inside, |a, b| a + b)
+            }
         }
     }
 }

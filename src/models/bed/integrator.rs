@@ -23,6 +23,7 @@ use super::kick_lanes::{kick_fours, Discs};
 use super::params::BedParams;
 pub use super::params::FrictionScheme;
 use super::state::{Particles, State};
+use crate::numerics::fold_items;
 
 /// From this many particles on, kicks and drifts run on the rayon pool (below it the pool's
 /// overhead exceeds the work).
@@ -239,14 +240,13 @@ pub fn time_step(
     factor: f64,
     max_step: f64,
 ) -> f64 {
-    let mut omega2 = field.out.iter().map(|o| o.stiffness).fold(0.0, f64::max);
+    let out = &field.out;
+    let mut omega2 = fold_items(out.len(), 0.0, |i| out[i].stiffness, f64::max);
     if kick.dry && kick.scheme == FrictionScheme::Explicit {
-        let friction = field
-            .out
-            .iter()
-            .zip(&particles.mass)
-            .map(|(o, m)| kick.dynamic_friction * o.normal / (m * kick.threshold_speed))
-            .fold(0.0, f64::max);
+        let friction = |i: usize| {
+            kick.dynamic_friction * out[i].normal / (particles.mass[i] * kick.threshold_speed)
+        };
+        let friction = fold_items(out.len(), 0.0, friction, f64::max);
         omega2 = omega2.max(friction * friction);
     }
     if omega2 > 0.0 {

@@ -5,6 +5,8 @@
 //! every pair itself would give, bit for bit (the separation seen from the other disk is the
 //! exact negative, fl(a − b) = −fl(b − a)), at any thread count.
 
+use std::ops::Range;
+
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
@@ -88,19 +90,23 @@ impl HalfList {
         position: &[Vector2<f64>],
         range: (f64, f64),
     ) {
-        if self.build != list.builds() {
-            self.index(list, position.len());
+        if self.build == list.builds() {
+            evaluate_terms(&mut self.terms, &self.pairs, position, range);
+            return;
         }
-        let terms = &mut self.terms;
-        terms.resize(self.pairs.len(), Separation::default());
+        self.index_pairs(list, position.len());
+        // The entries' slots are filled in one serial pass; the terms, which need only the
+        // pairs, are evaluated on the pool meanwhile.
+        let (below, terms) = (&mut self.below, &mut self.terms);
+        let mut index = || index_below(below, &self.below_row, &self.first_pair, list);
+        let mut evaluate = || evaluate_terms(terms, &self.pairs, position, range);
         if self.pairs.len() >= PARALLEL_FROM {
-            terms
-                .par_chunks_mut(CHUNK)
-                .zip(self.pairs.par_chunks(CHUNK))
-                .for_each(|(terms, pairs)| separations(terms, pairs, position, range));
+            rayon::join(index, evaluate);
         } else {
-            separations(terms, &self.pairs, position, range);
+            index();
+            evaluate();
         }
+        self.build = list.builds();
     }
 
     /// Disk i's list entries: its partners below it with their pairs' slots, then those
@@ -117,37 +123,105 @@ impl HalfList {
         }
     }
 
-    /// The pairs of a newly built list and every entry's pair, in one pass: disk i's entries
-    /// below it (partners j < i) come in ascending j, the order in which the disks j reach
-    /// their pair with i, so each row fills its lower part from a cursor.
-    fn index(&mut self, list: &NeighborList<2>, n: usize) {
+    /// The pairs (i, j > i) of a newly built list, in each disk's list order, and where
+    /// each disk's pairs and lower entries begin (the rows are split and the pairs written
+    /// on the pool for long lists).
+    fn index_pairs(&mut self, list: &NeighborList<2>, n: usize) {
+        let lower = |i: usize| list.of(i).partition_point(|&j| (j as usize) < i);
+        let parallel = list.len() >= 2 * PARALLEL_FROM;
+        let lower: Vec<usize> = if parallel {
+            (0..n).into_par_iter().map(lower).collect()
+        } else {
+            (0..n).map(lower).collect()
+        };
         self.below_row.clear();
         self.below_row.push(0);
-        for i in 0..n {
-            let below = list.of(i).partition_point(|&j| (j as usize) < i);
-            self.below_row.push(self.below_row[i] + below);
-        }
-        self.below.clear();
-        self.below.resize(self.below_row[n], 0);
-        let mut cursor = self.below_row[..n].to_vec();
-        self.pairs.clear();
         self.first_pair.clear();
-        for i in 0..n {
-            debug_assert_eq!(
-                cursor[i],
-                self.below_row[i + 1],
-                "a neighbour list holds every pair in both rows"
-            );
-            self.first_pair.push(self.pairs.len());
-            let row = list.of(i);
-            for &j in &row[self.below_row[i + 1] - self.below_row[i]..] {
-                self.below[cursor[j as usize]] = self.pairs.len() as u32;
-                cursor[j as usize] += 1;
-                self.pairs.push((i as u32, j));
-            }
+        self.first_pair.push(0);
+        for (i, &below) in lower.iter().enumerate() {
+            self.below_row.push(self.below_row[i] + below);
+            self.first_pair
+                .push(self.first_pair[i] + list.of(i).len() - below);
         }
-        self.first_pair.push(self.pairs.len());
-        self.build = list.builds();
+        self.pairs.resize(self.first_pair[n], (0, 0));
+        let fill = |(disks, pairs): (Range<usize>, &mut [(u32, u32)])| {
+            let rows =
+                disks.flat_map(|i| list.of(i)[lower[i]..].iter().map(move |&j| (i as u32, j)));
+            pairs
+                .iter_mut()
+                .zip(rows)
+                .for_each(|(slot, pair)| *slot = pair);
+        };
+        let blocks = split_rows(&mut self.pairs, &self.first_pair, CHUNK);
+        if parallel {
+            blocks.into_par_iter().for_each(fill);
+        } else {
+            blocks.into_iter().for_each(fill);
+        }
+    }
+}
+
+/// `items` split into the parts of consecutive rows, `rows` rows a part, where row i holds
+/// `items[start[i]..start[i + 1]]`.
+fn split_rows<'a, T>(
+    mut items: &'a mut [T],
+    start: &[usize],
+    rows: usize,
+) -> Vec<(Range<usize>, &'a mut [T])> {
+    let n = start.len() - 1;
+    (0..n)
+        .step_by(rows)
+        .map(|first| {
+            let last = (first + rows).min(n);
+            let (part, rest) = std::mem::take(&mut items).split_at_mut(start[last] - start[first]);
+            items = rest;
+            (first..last, part)
+        })
+        .collect()
+}
+
+/// Every list entry's pair: disk i's entries below it (partners j < i) come in ascending j,
+/// the order in which the disks j reach their pair with i, so each row fills its lower part
+/// from a cursor.
+fn index_below(
+    below: &mut Vec<u32>,
+    below_row: &[usize],
+    first_pair: &[usize],
+    list: &NeighborList<2>,
+) {
+    let n = below_row.len() - 1;
+    below.clear();
+    below.resize(below_row[n], 0);
+    let mut cursor = below_row[..n].to_vec();
+    for i in 0..n {
+        debug_assert_eq!(
+            cursor[i],
+            below_row[i + 1],
+            "a neighbour list holds every pair in both rows"
+        );
+        let above = &list.of(i)[below_row[i + 1] - below_row[i]..];
+        for (pair, &j) in (first_pair[i]..).zip(above) {
+            below[cursor[j as usize]] = pair as u32;
+            cursor[j as usize] += 1;
+        }
+    }
+}
+
+/// The terms of `pairs` at these positions (on the pool for long lists).
+fn evaluate_terms(
+    terms: &mut Vec<Separation>,
+    pairs: &[(u32, u32)],
+    position: &[Vector2<f64>],
+    range: (f64, f64),
+) {
+    terms.resize(pairs.len(), Separation::default());
+    if pairs.len() >= PARALLEL_FROM {
+        terms
+            .par_chunks_mut(CHUNK)
+            .zip(pairs.par_chunks(CHUNK))
+            .for_each(|(terms, pairs)| separations(terms, pairs, position, range));
+    } else {
+        separations(terms, pairs, position, range);
     }
 }
 

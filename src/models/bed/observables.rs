@@ -11,8 +11,9 @@ use nalgebra::{Vector2, Vector3};
 use rayon::prelude::*;
 use std::path::Path;
 
-use super::forces::ForceField;
+use super::forces::{ForceField, ParticleForce};
 use super::state::{Geometry, Particles, State};
+use crate::numerics::fold_items;
 use crate::output::particles::{Cell, ParticleFrame, Property};
 use crate::Result;
 
@@ -102,13 +103,50 @@ pub fn min_piston_distance(state: &State) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Smallest distance between a particle centre and a fixed wall (bottom, sides), m.
-pub fn min_wall_distance(state: &State, geometry: &Geometry) -> f64 {
-    state
-        .position
-        .iter()
-        .map(|p| p.y.min(p.x).min(geometry.width - p.x))
-        .fold(f64::INFINITY, f64::min)
+/// What the run checks look at after a step, found in one pass over the particles (on the
+/// pool for large beds; max, min and "all" give the same values in any order).
+#[derive(Debug, Clone, Copy)]
+pub struct Extremes {
+    /// Largest closeness of the last force evaluation ([`ParticleForce::closeness`]).
+    pub closeness: f64,
+    /// Smallest distance between a particle centre and a fixed wall (bottom, sides), m.
+    pub wall: f64,
+    /// Smallest distance between a particle centre and the piston, m.
+    pub piston: f64,
+    /// Whether every position and velocity is finite.
+    pub finite: bool,
+}
+
+impl Extremes {
+    const NONE: Self = Self {
+        closeness: 0.0,
+        wall: f64::INFINITY,
+        piston: f64::INFINITY,
+        finite: true,
+    };
+
+    /// The extremes of `state` with the forces `out` evaluated at it.
+    pub fn of(state: &State, geometry: &Geometry, out: &[ParticleForce]) -> Self {
+        let particle = |i: usize| {
+            let (p, v) = (state.position[i], state.velocity[i]);
+            Self {
+                closeness: out[i].closeness,
+                wall: p.y.min(p.x).min(geometry.width - p.x),
+                piston: state.piston - p.y,
+                finite: p.x.is_finite() && p.y.is_finite() && v.x.is_finite() && v.y.is_finite(),
+            }
+        };
+        fold_items(state.position.len(), Self::NONE, particle, Self::merge)
+    }
+
+    fn merge(self, other: Self) -> Self {
+        Self {
+            closeness: self.closeness.max(other.closeness),
+            wall: self.wall.min(other.wall),
+            piston: self.piston.min(other.piston),
+            finite: self.finite && other.finite,
+        }
+    }
 }
 
 /// A saved particle configuration.

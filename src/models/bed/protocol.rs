@@ -8,7 +8,7 @@ use std::time::Instant;
 use super::forces::ForceField;
 use super::integrator::{step, time_step, Kick};
 use super::observables::{
-    area_fraction_profile, mean_distance, min_piston_distance, min_wall_distance, Snapshot,
+    area_fraction_profile, mean_distance, min_piston_distance, Extremes, Snapshot,
     AREA_FRACTION_SERIES,
 };
 use super::pair_work::PairWork;
@@ -179,29 +179,16 @@ impl<'a> Simulation<'a> {
     /// Flags blow-ups, discs closer than the allowed ratio and centres crossing a wall.
     fn check(&mut self) -> Result<(), String> {
         let t = self.state.time;
-        let closeness = self
-            .field
-            .out
-            .iter()
-            .map(|o| o.closeness)
-            .fold(0.0, f64::max);
-        let closest = if closeness > 0.0 {
-            1.0 / closeness.sqrt()
+        let extremes = Extremes::of(&self.state, &self.geometry, &self.field.out);
+        let closest = if extremes.closeness > 0.0 {
+            1.0 / extremes.closeness.sqrt()
         } else {
             f64::INFINITY
         };
         self.closest_pair = self.closest_pair.min(closest);
-        self.closest_wall = self
-            .closest_wall
-            .min(min_wall_distance(&self.state, &self.geometry));
-        self.closest_piston = self.closest_piston.min(min_piston_distance(&self.state));
-        if !self
-            .state
-            .position
-            .iter()
-            .chain(&self.state.velocity)
-            .all(|v| v.x.is_finite() && v.y.is_finite())
-        {
+        self.closest_wall = self.closest_wall.min(extremes.wall);
+        self.closest_piston = self.closest_piston.min(extremes.piston);
+        if !extremes.finite {
             return Err(format!(
                 "non-finite position or velocity at t = {t:.4} s (blow-up)"
             ));
