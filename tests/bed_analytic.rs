@@ -6,7 +6,7 @@
 use std::f64::consts::PI;
 
 use magopt::models::bed::forces::ForceField;
-use magopt::models::bed::integrator::{step, time_step, Kick};
+use magopt::models::bed::integrator::{step, Kick, StepScan};
 use magopt::models::bed::params::{BedParams, Friction, Neighbors, Reach, TiltOrder, WallLaw};
 use magopt::models::bed::state::{Geometry, Particles, State};
 use magopt::units::MU0;
@@ -248,7 +248,7 @@ fn total_momentum_is_conserved_with_the_walls_off() {
         let p0 = momentum(&state);
         let mut moved = 0.0;
         for _ in 0..3000 {
-            let dt = time_step(&field, &particles, &kick, 0.2, 1e-3);
+            let dt = StepScan::of(&state, &particles, &field, &kick).time_step(0.2, 1e-3);
             step(&mut state, &particles, &mut field, &kick, dt, 1e4);
             moved = state
                 .velocity

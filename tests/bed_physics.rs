@@ -4,7 +4,7 @@
 //! explicit reference.
 
 use magopt::models::bed::forces::{pair_force, ForceField};
-use magopt::models::bed::integrator::{step, time_step, Kick};
+use magopt::models::bed::integrator::{step, Kick, StepScan};
 use magopt::models::bed::params::{BedParams, Friction, FrictionScheme, Heights, Neighbors, Reach};
 use magopt::models::bed::protocol::run_cycle;
 use magopt::models::bed::state::{Geometry, Particles, State};
@@ -71,8 +71,8 @@ impl Single {
     fn run_adaptive(&mut self, factor: f64, t_end: f64) -> usize {
         let mut steps = 0;
         while self.state.time < t_end {
-            let dt = time_step(&self.field, &self.particles, &self.kick, factor, 1e-3)
-                .min(t_end - self.state.time);
+            let scan = StepScan::of(&self.state, &self.particles, &self.field, &self.kick);
+            let dt = scan.time_step(factor, 1e-3).min(t_end - self.state.time);
             self.step_by(dt);
             steps += 1;
         }

@@ -102,6 +102,7 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
         sim.series.push(FALL_SERIES, 0.0, sim.state.piston);
         next_record += sim.params.damper_record_interval;
     }
+    let mut scan = sim.scan(&kick);
     while end - sim.state.time > 1e-12 * end.max(1.0) {
         let omega2 = sim
             .field
@@ -111,7 +112,7 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
             .sum::<f64>()
             / piston.mass;
         let dt = sim
-            .time_step(&kick)
+            .time_step(&scan)
             .min(sim.params.time_step_factor / omega2.sqrt())
             .min(end - sim.state.time);
         piston.kick(sim.field.piston_force(), 0.5 * dt);
@@ -126,9 +127,9 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
         sim.state.piston += piston.velocity * dt;
         sim.state.time += dt;
         sim.field.evaluate(&sim.particles, &sim.state);
-        half_kick(&mut sim.state, &sim.particles, &sim.field, &kick, 0.5 * dt);
+        scan = half_kick(&mut sim.state, &sim.particles, &sim.field, &kick, 0.5 * dt);
         piston.kick(sim.field.piston_force(), 0.5 * dt);
-        sim.after_step()
+        sim.after_step(&scan.extremes)
             .map_err(|r| format!("bed crushed by the piston of mass {} kg: {r}", piston.mass))?;
         let resting = piston.velocity.abs() < REST_SPEED
             && (sim.field.piston_force() - weight).abs() < REST_FORCE * weight;

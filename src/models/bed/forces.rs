@@ -276,6 +276,11 @@ impl ForceField {
         due
     }
 
+    /// The cell the forces are evaluated in.
+    pub(super) fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
     /// Total force on the piston (upwards), summed in index order, N.
     pub fn piston_force(&self) -> f64 {
         self.out.iter().map(|o| o.on_piston).sum()

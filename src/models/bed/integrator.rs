@@ -18,11 +18,12 @@
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
-use super::forces::ForceField;
+use super::forces::{ForceField, ParticleForce};
 use super::kick_lanes::{kick_fours, Discs};
+use super::observables::Extremes;
 use super::params::BedParams;
 pub use super::params::FrictionScheme;
-use super::state::{Particles, State};
+use super::state::{Geometry, Particles, State};
 use crate::numerics::fold_items;
 
 /// From this many particles on, kicks and drifts run on the rayon pool (below it the pool's
@@ -120,7 +121,7 @@ impl Kick {
 
 /// Advances the particles by Δt with the piston moved to `piston_after` (prescribed motion);
 /// the forces in `field` must be those of the current state and are those of the new state on
-/// return.
+/// return, and so is the returned scan.
 pub fn step(
     state: &mut State,
     particles: &Particles,
@@ -128,12 +129,12 @@ pub fn step(
     kick: &Kick,
     dt: f64,
     piston_after: f64,
-) {
+) -> StepScan {
     kick_and_drift(state, particles, field, kick, 0.5 * dt, dt);
     state.piston = piston_after;
     state.time += dt;
     field.evaluate(particles, state);
-    half_kick(state, particles, field, kick, 0.5 * dt);
+    half_kick(state, particles, field, kick, 0.5 * dt)
 }
 
 /// A half kick of length h, then a drift of dt, of every particle in one pass.
@@ -148,18 +149,20 @@ pub fn kick_and_drift(
     kick_each(state, particles, field, kick, h, Some(dt));
 }
 
-/// One half kick of every particle (friction included).
+/// One half kick of every particle (friction included); returns the scan of the kicked state
+/// (found in the same pass).
 pub fn half_kick(
     state: &mut State,
     particles: &Particles,
     field: &ForceField,
     kick: &Kick,
     h: f64,
-) {
-    kick_each(state, particles, field, kick, h, None);
+) -> StepScan {
+    kick_each(state, particles, field, kick, h, None)
 }
 
-/// A half kick of length h of every particle, each followed by a drift of `drift` if given.
+/// A half kick of length h of every particle, each followed by a drift of `drift` if given;
+/// without a drift, returns the scan of the kicked state ([`StepScan::NONE`] with one).
 fn kick_each(
     state: &mut State,
     particles: &Particles,
@@ -167,10 +170,18 @@ fn kick_each(
     kick: &Kick,
     h: f64,
     drift: Option<f64>,
-) {
+) -> StepScan {
     let length = (h, kick.viscous_decay(h));
+    let scan = Scanner::new(kick, field, state.piston);
     let (position, velocity) = (&mut state.position, &mut state.velocity);
     let (force, mass) = (&field.out[..], &particles.mass[..]);
+    let block = |discs: Discs| {
+        let discs = kick_block(kick, discs, length, drift);
+        match drift {
+            Some(_) => StepScan::NONE,
+            None => scan.block(&discs),
+        }
+    };
     if position.len() >= PARALLEL_UPDATE_FROM {
         position
             .par_chunks_mut(UPDATE_BLOCK)
@@ -180,23 +191,22 @@ fn kick_each(
                     .par_chunks(UPDATE_BLOCK)
                     .zip(mass.par_chunks(UPDATE_BLOCK)),
             )
-            .for_each(|((position, velocity), (force, mass))| {
-                let discs = Discs {
+            .map(|((position, velocity), (force, mass))| {
+                block(Discs {
                     position,
                     velocity,
                     force,
                     mass,
-                };
-                kick_block(kick, discs, length, drift)
-            });
+                })
+            })
+            .reduce(|| StepScan::NONE, StepScan::merge)
     } else {
-        let discs = Discs {
+        block(Discs {
             position,
             velocity,
             force,
             mass,
-        };
-        kick_block(kick, discs, length, drift);
+        })
     }
 }
 
@@ -204,25 +214,20 @@ fn kick_each(
 const UPDATE_BLOCK: usize = 512;
 
 /// The kicks (and drifts) of one block of discs: in fours where [`kick_fours`] can, the
-/// rest one by one.
-fn kick_block(
+/// rest one by one; returns the block.
+fn kick_block<'a>(
     kick: &Kick,
-    mut discs: Discs,
+    mut discs: Discs<'a>,
     length: (f64, Option<(f64, f64)>),
     drift: Option<f64>,
-) {
+) -> Discs<'a> {
     let done = kick_fours(kick, &mut discs, length, drift);
-    let Discs {
-        position,
-        velocity,
-        force,
-        mass,
-    } = discs;
-    for (((x, v), o), m) in position
+    for (((x, v), o), m) in discs
+        .position
         .iter_mut()
-        .zip(velocity.iter_mut())
-        .zip(force)
-        .zip(mass)
+        .zip(discs.velocity.iter_mut())
+        .zip(discs.force)
+        .zip(discs.mass)
         .skip(done)
     {
         *v = kick.velocity_with(*v, o.force, o.normal, *m, length);
@@ -230,29 +235,89 @@ fn kick_block(
             *x += *v * dt;
         }
     }
+    discs
 }
 
-/// The step from the current forces: factor/ω_max, at most `max_step`.
-pub fn time_step(
-    field: &ForceField,
-    particles: &Particles,
-    kick: &Kick,
-    factor: f64,
-    max_step: f64,
-) -> f64 {
-    let out = &field.out;
-    let mut omega2 = fold_items(out.len(), 0.0, |i| out[i].stiffness, f64::max);
-    if kick.dry && kick.scheme == FrictionScheme::Explicit {
-        let friction = |i: usize| {
-            kick.dynamic_friction * out[i].normal / (particles.mass[i] * kick.threshold_speed)
-        };
-        let friction = fold_items(out.len(), 0.0, friction, f64::max);
-        omega2 = omega2.max(friction * friction);
+/// What the end of a step gives the run: the time-step rule's largest rate and the run checks'
+/// extremes, found in the pass of the step's closing half kick (one pass on the pool instead
+/// of three; max, min and "all" give the same values in any order, so at any thread count).
+#[derive(Debug, Clone, Copy)]
+pub struct StepScan {
+    /// ω_max² of the time-step rule, 1/s².
+    rate2: f64,
+    /// The extremes the run checks look at.
+    pub extremes: Extremes,
+}
+
+impl StepScan {
+    const NONE: Self = Self {
+        rate2: 0.0,
+        extremes: Extremes::NONE,
+    };
+
+    /// The scan of a state whose forces `field` holds (for the first step of a stage).
+    pub fn of(state: &State, particles: &Particles, field: &ForceField, kick: &Kick) -> Self {
+        let scan = Scanner::new(kick, field, state.piston);
+        let (position, velocity, out) = (&state.position, &state.velocity, &field.out);
+        let disc = |i: usize| scan.disc(position[i], velocity[i], &out[i], particles.mass[i]);
+        fold_items(position.len(), Self::NONE, disc, Self::merge)
     }
-    if omega2 > 0.0 {
-        (factor / omega2.sqrt()).min(max_step)
-    } else {
-        max_step
+
+    fn merge(self, other: Self) -> Self {
+        Self {
+            rate2: self.rate2.max(other.rate2),
+            extremes: self.extremes.merge(other.extremes),
+        }
+    }
+
+    /// The step the rule gives: factor/ω_max, at most `max_step`, s.
+    pub fn time_step(&self, factor: f64, max_step: f64) -> f64 {
+        if self.rate2 > 0.0 {
+            (factor / self.rate2.sqrt()).min(max_step)
+        } else {
+            max_step
+        }
+    }
+}
+
+/// What a scan of discs needs besides the discs.
+struct Scanner<'a> {
+    kick: &'a Kick,
+    geometry: &'a Geometry,
+    piston: f64,
+}
+
+impl<'a> Scanner<'a> {
+    fn new(kick: &'a Kick, field: &'a ForceField, piston: f64) -> Self {
+        let geometry = field.geometry();
+        Self {
+            kick,
+            geometry,
+            piston,
+        }
+    }
+
+    /// One disc: ω² = k/m of its stiffest interaction (and, for the explicit friction
+    /// reference, (μ_d N/(m v_t))², from the friction force's slope at v_t).
+    fn disc(&self, p: Vector2<f64>, v: Vector2<f64>, o: &ParticleForce, m: f64) -> StepScan {
+        let kick = self.kick;
+        let mut rate2 = o.stiffness;
+        if kick.dry && kick.scheme == FrictionScheme::Explicit {
+            let friction = (kick.dynamic_friction * o.normal / (m * kick.threshold_speed)).max(0.0);
+            rate2 = rate2.max(friction * friction);
+        }
+        let extremes = Extremes::of_disc(p, v, o.closeness, self.geometry, self.piston);
+        StepScan { rate2, extremes }
+    }
+
+    fn block(&self, discs: &Discs) -> StepScan {
+        let disc = |i: usize| {
+            let (p, v) = (discs.position[i], discs.velocity[i]);
+            self.disc(p, v, &discs.force[i], discs.mass[i])
+        };
+        (0..discs.position.len())
+            .map(disc)
+            .fold(StepScan::NONE, StepScan::merge)
     }
 }
 

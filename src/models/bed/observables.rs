@@ -11,9 +11,8 @@ use nalgebra::{Vector2, Vector3};
 use rayon::prelude::*;
 use std::path::Path;
 
-use super::forces::{ForceField, ParticleForce};
+use super::forces::ForceField;
 use super::state::{Geometry, Particles, State};
-use crate::numerics::fold_items;
 use crate::output::particles::{Cell, ParticleFrame, Property};
 use crate::Result;
 
@@ -103,11 +102,11 @@ pub fn min_piston_distance(state: &State) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// What the run checks look at after a step, found in one pass over the particles (on the
-/// pool for large beds; max, min and "all" give the same values in any order).
+/// What the run checks look at after a step (found in the step's last pass: see
+/// [`super::integrator::StepScan`]).
 #[derive(Debug, Clone, Copy)]
 pub struct Extremes {
-    /// Largest closeness of the last force evaluation ([`ParticleForce::closeness`]).
+    /// Largest closeness of the last force evaluation ([`super::forces::ParticleForce::closeness`]).
     pub closeness: f64,
     /// Smallest distance between a particle centre and a fixed wall (bottom, sides), m.
     pub wall: f64,
@@ -118,28 +117,33 @@ pub struct Extremes {
 }
 
 impl Extremes {
-    const NONE: Self = Self {
+    /// The extremes of no particle (the start of a merge).
+    pub const NONE: Self = Self {
         closeness: 0.0,
         wall: f64::INFINITY,
         piston: f64::INFINITY,
         finite: true,
     };
 
-    /// The extremes of `state` with the forces `out` evaluated at it.
-    pub fn of(state: &State, geometry: &Geometry, out: &[ParticleForce]) -> Self {
-        let particle = |i: usize| {
-            let (p, v) = (state.position[i], state.velocity[i]);
-            Self {
-                closeness: out[i].closeness,
-                wall: p.y.min(p.x).min(geometry.width - p.x),
-                piston: state.piston - p.y,
-                finite: p.x.is_finite() && p.y.is_finite() && v.x.is_finite() && v.y.is_finite(),
-            }
-        };
-        fold_items(state.position.len(), Self::NONE, particle, Self::merge)
+    /// Those of one disc at `p` with velocity `v` and the closeness of its force evaluation,
+    /// the piston face at height `piston`.
+    pub fn of_disc(
+        p: Vector2<f64>,
+        v: Vector2<f64>,
+        closeness: f64,
+        geometry: &Geometry,
+        piston: f64,
+    ) -> Self {
+        Self {
+            closeness,
+            wall: p.y.min(p.x).min(geometry.width - p.x),
+            piston: piston - p.y,
+            finite: p.x.is_finite() && p.y.is_finite() && v.x.is_finite() && v.y.is_finite(),
+        }
     }
 
-    fn merge(self, other: Self) -> Self {
+    /// The extremes of two disjoint sets of discs together.
+    pub fn merge(self, other: Self) -> Self {
         Self {
             closeness: self.closeness.max(other.closeness),
             wall: self.wall.min(other.wall),

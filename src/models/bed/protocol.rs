@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use super::forces::ForceField;
-use super::integrator::{step, time_step, Kick};
+use super::integrator::{step, Kick, StepScan};
 use super::observables::{
     area_fraction_profile, mean_distance, min_piston_distance, Extremes, Snapshot,
     AREA_FRACTION_SERIES,
@@ -125,11 +125,12 @@ impl<'a> Simulation<'a> {
     ) -> Result<f64, String> {
         let kick = Kick::of(self.params, damped);
         let (start, end) = (self.state.time, self.state.time + duration);
+        let mut scan = self.scan(&kick);
         while end - self.state.time > 1e-12 * end.max(1.0) && !stop(self) {
-            let dt = self.time_step(&kick).min(end - self.state.time);
+            let dt = self.time_step(&scan).min(end - self.state.time);
             let before = self.state.piston;
             let after = piston(self.state.time + dt - start);
-            step(
+            scan = step(
                 &mut self.state,
                 &self.particles,
                 &mut self.field,
@@ -137,25 +138,25 @@ impl<'a> Simulation<'a> {
                 dt,
                 after,
             );
-            self.after_step()?;
+            self.after_step(&scan.extremes)?;
             each(self, after - before);
         }
         Ok(self.state.time - start)
     }
 
-    /// The step the rule gives for the current forces.
-    pub fn time_step(&self, kick: &Kick) -> f64 {
-        time_step(
-            &self.field,
-            &self.particles,
-            kick,
-            self.params.time_step_factor,
-            self.params.max_time_step,
-        )
+    /// The scan of the current state and forces (what a step returns) for `kick`.
+    pub fn scan(&self, kick: &Kick) -> StepScan {
+        StepScan::of(&self.state, &self.particles, &self.field, kick)
     }
 
-    /// Counters, extremes, checks, recording and particle frames after a step.
-    pub fn after_step(&mut self) -> Result<(), String> {
+    /// The step the rule gives for the scanned forces.
+    pub fn time_step(&self, scan: &StepScan) -> f64 {
+        scan.time_step(self.params.time_step_factor, self.params.max_time_step)
+    }
+
+    /// Counters, extremes, checks, recording and particle frames after a step whose state
+    /// has the given extremes.
+    pub fn after_step(&mut self, extremes: &Extremes) -> Result<(), String> {
         self.steps += 1;
         self.pair_work
             .record(&self.field, &self.state.position, self.state.piston);
@@ -167,7 +168,7 @@ impl<'a> Simulation<'a> {
                 self.params.max_steps, self.state.time
             ));
         }
-        self.check()?;
+        self.check(extremes)?;
         if self.state.time >= self.next_record {
             self.record();
             self.next_record = self.state.time + self.params.record_interval();
@@ -177,9 +178,8 @@ impl<'a> Simulation<'a> {
     }
 
     /// Flags blow-ups, discs closer than the allowed ratio and centres crossing a wall.
-    fn check(&mut self) -> Result<(), String> {
+    fn check(&mut self, extremes: &Extremes) -> Result<(), String> {
         let t = self.state.time;
-        let extremes = Extremes::of(&self.state, &self.geometry, &self.field.out);
         let closest = if extremes.closeness > 0.0 {
             1.0 / extremes.closeness.sqrt()
         } else {
