@@ -40,6 +40,25 @@ pub struct NeighborList<const D: usize = 3> {
 /// The lower and upper corners of a bounding box.
 type Bounds<const D: usize> = (SVector<f64, D>, SVector<f64, D>);
 
+/// A distance-rule list's rebuild check of single points (see [`NeighborList::watch`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Watch<'a, const D: usize> {
+    reference: &'a [SVector<f64, D>],
+    limit2: f64,
+}
+
+impl<const D: usize> Watch<'_, D> {
+    /// Whether point i at `p` has moved beyond the rebuild distance since the build.
+    pub fn beyond(&self, i: usize, p: &SVector<f64, D>) -> bool {
+        (p - self.reference[i]).norm_squared() > self.limit2
+    }
+
+    /// Whether some point of `block`, the points from index `start` on, has.
+    pub fn any_beyond(&self, start: usize, block: &[SVector<f64, D>]) -> bool {
+        (start..).zip(block).any(|(i, p)| self.beyond(i, p))
+    }
+}
+
 /// When a list is rebuilt.
 #[derive(Debug, Clone, Copy)]
 enum Rebuild {
@@ -112,32 +131,61 @@ impl<const D: usize> NeighborList<D> {
         }
     }
 
+    /// The displacement check of a list rebuilt on a distance and built for `n` points, for a
+    /// caller that moves the points to run as it moves them ([`Self::update_watched`]); None
+    /// for a list rebuilt on the spread or not built for `n` points.
+    pub fn watch(&self, n: usize) -> Option<Watch<'_, D>> {
+        match self.rule {
+            Rebuild::Distance(limit) if self.reference.len() == n => Some(Watch {
+                reference: &self.reference,
+                limit2: limit * limit,
+            }),
+            _ => None,
+        }
+    }
+
+    /// [`Self::update`] for a caller that ran [`Self::watch`] over every point as it moved
+    /// them: `beyond` is whether some point went beyond. Rebuilds if needed; returns whether
+    /// it did.
+    pub fn update_watched(
+        &mut self,
+        positions: &[SVector<f64, D>],
+        radii: &[f64],
+        beyond: bool,
+    ) -> bool {
+        debug_assert!(self.watch(positions.len()).is_some());
+        if beyond {
+            self.build(positions, radii);
+        }
+        beyond
+    }
+
     fn needs_rebuild(&self, positions: &[SVector<f64, D>]) -> bool {
-        if self.reference.len() != positions.len() {
+        let n = positions.len();
+        if self.reference.len() != n {
             return true;
         }
         // scans of every particle, each step: on the pool for large sets (`any`, min and max
         // give the same answer in any order)
-        let n = positions.len();
-        let moved = |i: usize| positions[i] - self.reference[i];
-        let beyond = |c: SVector<f64, D>, limit: f64| {
-            let out = |i: usize| (moved(i) - c).norm_squared() > limit * limit;
-            fold_items(n, false, out, |a, b| a || b)
-        };
-        match self.rule {
-            Rebuild::Distance(limit) => beyond(SVector::zeros(), limit),
-            Rebuild::Spread => {
-                let limit = 0.5 * self.skin;
-                if !beyond(SVector::zeros(), limit) {
-                    return false;
-                }
-                let far = SVector::<f64, D>::repeat(f64::INFINITY);
-                let bounds = |i: usize| (moved(i), moved(i));
-                let merge = |(lo, hi): Bounds<D>, (a, b): Bounds<D>| (lo.inf(&a), hi.sup(&b));
-                let (lo, hi) = fold_items(n, (far, -far), bounds, merge);
-                beyond(0.5 * (lo + hi), limit)
-            }
+        let any = |a, b| a || b;
+        if let Some(watch) = self.watch(n) {
+            return fold_items(n, false, |i| watch.beyond(i, &positions[i]), any);
         }
+        // the spread rule
+        let limit = 0.5 * self.skin;
+        let moved = |i: usize| positions[i] - self.reference[i];
+        let beyond = |c: SVector<f64, D>| {
+            let out = |i: usize| (moved(i) - c).norm_squared() > limit * limit;
+            fold_items(n, false, out, any)
+        };
+        if !beyond(SVector::zeros()) {
+            return false;
+        }
+        let far = SVector::<f64, D>::repeat(f64::INFINITY);
+        let bounds = |i: usize| (moved(i), moved(i));
+        let merge = |(lo, hi): Bounds<D>, (a, b): Bounds<D>| (lo.inf(&a), hi.sup(&b));
+        let (lo, hi) = fold_items(n, (far, -far), bounds, merge);
+        beyond(0.5 * (lo + hi))
     }
 
     /// Builds the list from a cell grid of cell size 2 R_max + skin; large sets are searched
@@ -302,6 +350,43 @@ mod tests {
         let far = Vector3::new(5.0, -7.0, 2.0);
         let moved: Vec<_> = list.reference.iter().map(|p| p + far).collect();
         assert!(!list.update(&moved, &radii));
+    }
+
+    /// A watched update (the mover checks each point) rebuilds at the same steps as the
+    /// list's own check, block by block from any start; a spread list has no watch.
+    #[test]
+    fn a_watched_update_rebuilds_when_the_list_would() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let n = 300;
+        let mut positions: Vec<Vector2<f64>> = (0..n)
+            .map(|_| Vector2::new(rng.random::<f64>() * 20.0, rng.random::<f64>() * 20.0))
+            .collect();
+        let radii = vec![0.5; n];
+        let (mut own, mut watched) = (NeighborList::<2>::new(0.4), NeighborList::<2>::new(0.4));
+        assert!(watched.watch(n).is_none(), "no watch before a build");
+        own.update(&positions, &radii);
+        watched.update(&positions, &radii);
+        for _ in 0..200 {
+            for p in &mut positions {
+                *p += Vector2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5) * 0.05;
+            }
+            let watch = watched.watch(n).expect("a built distance list has a watch");
+            let beyond = positions
+                .chunks(64)
+                .enumerate()
+                .any(|(b, c)| watch.any_beyond(64 * b, c));
+            assert_eq!(
+                watched.update_watched(&positions, &radii, beyond),
+                own.update(&positions, &radii)
+            );
+        }
+        assert!(
+            own.builds() > 5,
+            "the moves rebuilt the list: {}",
+            own.builds()
+        );
+        assert_eq!(own.builds(), watched.builds());
+        assert!(NeighborList::<2>::rebuilt_on_spread(0.4).watch(0).is_none());
     }
 
     /// Random steps, half the points also drifting as one: after every update the list holds

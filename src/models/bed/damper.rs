@@ -116,7 +116,7 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
             .min(sim.params.time_step_factor / omega2.sqrt())
             .min(end - sim.state.time);
         piston.kick(sim.field.piston_force(), 0.5 * dt);
-        kick_and_drift(
+        let beyond = kick_and_drift(
             &mut sim.state,
             &sim.particles,
             &sim.field,
@@ -126,7 +126,8 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
         );
         sim.state.piston += piston.velocity * dt;
         sim.state.time += dt;
-        sim.field.evaluate(&sim.particles, &sim.state);
+        sim.field
+            .evaluate_watched(&sim.particles, &sim.state, beyond);
         scan = half_kick(&mut sim.state, &sim.particles, &sim.field, &kick, 0.5 * dt);
         piston.kick(sim.field.piston_force(), 0.5 * dt);
         sim.after_step(&scan.extremes)

@@ -15,7 +15,7 @@ use super::list_pairs::HalfList;
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
 use super::walls::{Walls, WALL_NORMALS};
-use crate::neighbor::NeighborList;
+use crate::neighbor::{NeighborList, Watch};
 use crate::numerics::fold_items;
 use crate::units::MU0;
 
@@ -209,11 +209,31 @@ impl ForceField {
 
     /// Evaluates every particle's forces at the state into `self.out`.
     pub fn evaluate(&mut self, particles: &Particles, state: &State) {
+        self.evaluate_watched(particles, state, None);
+    }
+
+    /// The neighbour list's rebuild check for a caller that moves the `n` particles (see
+    /// [`NeighborList::watch`]): for a list updated every step on the particles' moves.
+    pub fn watch(&self, n: usize) -> Option<Watch<'_, 2>> {
+        match &self.pairs {
+            Pairs::Cut {
+                list,
+                every_step: false,
+                split: None,
+                ..
+            } => list.watch(n),
+            _ => None,
+        }
+    }
+
+    /// [`Self::evaluate`] after moves that ran [`Self::watch`] over every particle: `beyond`
+    /// is whether some particle went beyond (None: no watch ran).
+    pub fn evaluate_watched(&mut self, particles: &Particles, state: &State, beyond: Option<bool>) {
         let (position, n) = (&state.position, state.position.len());
         if let Pairs::All(exact) = &mut self.pairs {
             exact.evaluate(position);
         }
-        if self.update_lists(position) {
+        if self.update_lists(position, beyond) {
             // the held far sums are refilled in place (no allocation after the first)
             let mut far = self
                 .split_mut()
@@ -241,7 +261,7 @@ impl ForceField {
 
     /// Brings the neighbour lists and their pair terms up to date for this step; returns
     /// whether the far part of a split evaluation is due (its list is then updated too).
-    fn update_lists(&mut self, position: &[Vector2<f64>]) -> bool {
+    fn update_lists(&mut self, position: &[Vector2<f64>], beyond: Option<bool>) -> bool {
         let (list, radii, cutoff2, every_step, split, half) = match &mut self.pairs {
             Pairs::All(_) => return false,
             Pairs::Tree { split, tree } => {
@@ -260,10 +280,10 @@ impl ForceField {
             } => (list, radii, cutoff2, every_step, split, half),
         };
         let Some(split) = split else {
-            if *every_step {
-                list.build(position, radii);
-            } else {
-                list.update(position, radii);
+            match (*every_step, beyond) {
+                (true, _) => list.build(position, radii),
+                (false, Some(beyond)) => _ = list.update_watched(position, radii, beyond),
+                (false, None) => _ = list.update(position, radii),
             }
             half.evaluate(list, position, (0.0, *cutoff2));
             return false;

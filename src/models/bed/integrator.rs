@@ -130,14 +130,17 @@ pub fn step(
     dt: f64,
     piston_after: f64,
 ) -> StepScan {
-    kick_and_drift(state, particles, field, kick, 0.5 * dt, dt);
+    let beyond = kick_and_drift(state, particles, field, kick, 0.5 * dt, dt);
     state.piston = piston_after;
     state.time += dt;
-    field.evaluate(particles, state);
+    field.evaluate_watched(particles, state, beyond);
     half_kick(state, particles, field, kick, 0.5 * dt)
 }
 
-/// A half kick of length h, then a drift of dt, of every particle in one pass.
+/// A half kick of length h, then a drift of dt, of every particle in one pass; returns, where
+/// the field's neighbour list has a watch ([`ForceField::watch`]), whether the drift moved some
+/// particle beyond it (for [`ForceField::evaluate_watched`]: its rebuild check then needs no
+/// pass of its own).
 pub fn kick_and_drift(
     state: &mut State,
     particles: &Particles,
@@ -145,8 +148,10 @@ pub fn kick_and_drift(
     kick: &Kick,
     h: f64,
     dt: f64,
-) {
-    kick_each(state, particles, field, kick, h, Some(dt));
+) -> Option<bool> {
+    let watched = field.watch(state.position.len()).is_some();
+    let found = kick_each(state, particles, field, kick, h, Some(dt));
+    watched.then_some(found.beyond)
 }
 
 /// One half kick of every particle (friction included); returns the scan of the kicked state
@@ -162,7 +167,8 @@ pub fn half_kick(
 }
 
 /// A half kick of length h of every particle, each followed by a drift of `drift` if given;
-/// without a drift, returns the scan of the kicked state ([`StepScan::NONE`] with one).
+/// without a drift, returns the scan of the kicked state, with one whether it moved a disc
+/// beyond the field's watch.
 fn kick_each(
     state: &mut State,
     particles: &Particles,
@@ -173,13 +179,19 @@ fn kick_each(
 ) -> StepScan {
     let length = (h, kick.viscous_decay(h));
     let scan = Scanner::new(kick, field, state.piston);
+    let watch = field.watch(state.position.len());
     let (position, velocity) = (&mut state.position, &mut state.velocity);
     let (force, mass) = (&field.out[..], &particles.mass[..]);
-    let block = |discs: Discs| {
+    // the block from disc `start` on: kicked (and drifted), then scanned or watched
+    let block = |start: usize, discs: Discs| {
         let discs = kick_block(kick, discs, length, drift);
-        match drift {
-            Some(_) => StepScan::NONE,
-            None => scan.block(&discs),
+        match (drift, &watch) {
+            (None, _) => scan.block(&discs),
+            (Some(_), Some(watch)) => StepScan {
+                beyond: watch.any_beyond(start, discs.position),
+                ..StepScan::NONE
+            },
+            (Some(_), None) => StepScan::NONE,
         }
     };
     if position.len() >= PARALLEL_UPDATE_FROM {
@@ -191,22 +203,25 @@ fn kick_each(
                     .par_chunks(UPDATE_BLOCK)
                     .zip(mass.par_chunks(UPDATE_BLOCK)),
             )
-            .map(|((position, velocity), (force, mass))| {
-                block(Discs {
+            .enumerate()
+            .map(|(b, ((position, velocity), (force, mass)))| {
+                let discs = Discs {
                     position,
                     velocity,
                     force,
                     mass,
-                })
+                };
+                block(b * UPDATE_BLOCK, discs)
             })
             .reduce(|| StepScan::NONE, StepScan::merge)
     } else {
-        block(Discs {
+        let discs = Discs {
             position,
             velocity,
             force,
             mass,
-        })
+        };
+        block(0, discs)
     }
 }
 
@@ -247,12 +262,16 @@ pub struct StepScan {
     rate2: f64,
     /// The extremes the run checks look at.
     pub extremes: Extremes,
+    /// Whether a drift moved some disc beyond the neighbour list's watch (a pass of
+    /// [`kick_and_drift`]; the other fields are then empty).
+    beyond: bool,
 }
 
 impl StepScan {
     const NONE: Self = Self {
         rate2: 0.0,
         extremes: Extremes::NONE,
+        beyond: false,
     };
 
     /// The scan of a state whose forces `field` holds (for the first step of a stage).
@@ -267,6 +286,7 @@ impl StepScan {
         Self {
             rate2: self.rate2.max(other.rate2),
             extremes: self.extremes.merge(other.extremes),
+            beyond: self.beyond || other.beyond,
         }
     }
 
@@ -307,7 +327,11 @@ impl<'a> Scanner<'a> {
             rate2 = rate2.max(friction * friction);
         }
         let extremes = Extremes::of_disc(p, v, o.closeness, self.geometry, self.piston);
-        StepScan { rate2, extremes }
+        StepScan {
+            rate2,
+            extremes,
+            beyond: false,
+        }
     }
 
     fn block(&self, discs: &Discs) -> StepScan {
