@@ -24,6 +24,7 @@ use super::observables::Extremes;
 use super::params::BedParams;
 pub use super::params::FrictionScheme;
 use super::state::{Geometry, Particles, State};
+use crate::neighbor::Watch;
 use crate::numerics::fold_items;
 
 /// From this many particles on, kicks and drifts run on the rayon pool (below it the pool's
@@ -149,9 +150,9 @@ pub fn kick_and_drift(
     h: f64,
     dt: f64,
 ) -> Option<bool> {
-    let watched = field.watch(state.position.len()).is_some();
-    let found = kick_each(state, particles, field, kick, h, Some(dt));
-    watched.then_some(found.beyond)
+    let watch = field.watch(state.position.len());
+    let found = kick_each(state, particles, field, kick, h, Some((dt, watch.as_ref())));
+    watch.map(|_| found.beyond)
 }
 
 /// One half kick of every particle (friction included); returns the scan of the kicked state
@@ -166,32 +167,31 @@ pub fn half_kick(
     kick_each(state, particles, field, kick, h, None)
 }
 
-/// A half kick of length h of every particle, each followed by a drift of `drift` if given;
-/// without a drift, returns the scan of the kicked state, with one whether it moved a disc
-/// beyond the field's watch.
+/// A half kick of length h of every particle, each followed by a drift of dt if `drift` gives
+/// one; without a drift, returns the scan of the kicked state, with one whether it moved a
+/// disc beyond the watch it gives (if any).
 fn kick_each(
     state: &mut State,
     particles: &Particles,
     field: &ForceField,
     kick: &Kick,
     h: f64,
-    drift: Option<f64>,
+    drift: Option<(f64, Option<&Watch<'_, 2>>)>,
 ) -> StepScan {
     let length = (h, kick.viscous_decay(h));
     let scan = Scanner::new(kick, field, state.piston);
-    let watch = field.watch(state.position.len());
     let (position, velocity) = (&mut state.position, &mut state.velocity);
     let (force, mass) = (&field.out[..], &particles.mass[..]);
     // the block from disc `start` on: kicked (and drifted), then scanned or watched
     let block = |start: usize, discs: Discs| {
-        let discs = kick_block(kick, discs, length, drift);
-        match (drift, &watch) {
-            (None, _) => scan.block(&discs),
-            (Some(_), Some(watch)) => StepScan {
+        let discs = kick_block(kick, discs, length, drift.map(|(dt, _)| dt));
+        match drift {
+            None => scan.block(&discs),
+            Some((_, Some(watch))) => StepScan {
                 beyond: watch.any_beyond(start, discs.position),
                 ..StepScan::NONE
             },
-            (Some(_), None) => StepScan::NONE,
+            Some((_, None)) => StepScan::NONE,
         }
     };
     if position.len() >= PARALLEL_UPDATE_FROM {

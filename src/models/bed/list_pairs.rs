@@ -127,26 +127,36 @@ impl HalfList {
     /// each disk's pairs and lower entries begin (the rows are split and the pairs written
     /// on the pool for long lists).
     fn index_pairs(&mut self, list: &NeighborList<2>, n: usize) {
-        let lower = |i: usize| list.of(i).partition_point(|&j| (j as usize) < i);
-        let parallel = list.len() >= 2 * PARALLEL_FROM;
-        let lower: Vec<usize> = if parallel {
-            (0..n).into_par_iter().map(lower).collect()
-        } else {
-            (0..n).map(lower).collect()
+        // each row's count of lower entries into below_row[i + 1], then the running sums
+        let count = |(i, below): (usize, &mut usize)| {
+            *below = list.of(i).partition_point(|&j| (j as usize) < i);
         };
-        self.below_row.clear();
-        self.below_row.push(0);
+        let parallel = list.len() >= 2 * PARALLEL_FROM;
+        self.below_row.resize(n + 1, 0);
+        self.below_row[0] = 0;
+        if parallel {
+            self.below_row[1..]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(count);
+        } else {
+            self.below_row[1..].iter_mut().enumerate().for_each(count);
+        }
         self.first_pair.clear();
         self.first_pair.push(0);
-        for (i, &below) in lower.iter().enumerate() {
-            self.below_row.push(self.below_row[i] + below);
+        for i in 0..n {
+            let below = self.below_row[i + 1];
+            self.below_row[i + 1] += self.below_row[i];
             self.first_pair
                 .push(self.first_pair[i] + list.of(i).len() - below);
         }
         self.pairs.resize(self.first_pair[n], (0, 0));
+        let below_row = &self.below_row;
         let fill = |(disks, pairs): (Range<usize>, &mut [(u32, u32)])| {
-            let rows =
-                disks.flat_map(|i| list.of(i)[lower[i]..].iter().map(move |&j| (i as u32, j)));
+            let rows = disks.flat_map(|i| {
+                let lower = below_row[i + 1] - below_row[i];
+                list.of(i)[lower..].iter().map(move |&j| (i as u32, j))
+            });
             pairs
                 .iter_mut()
                 .zip(rows)
