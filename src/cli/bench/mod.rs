@@ -59,6 +59,12 @@ pub struct BenchArgs {
     /// align: cap on alignment steps per run (the run stops earlier at A = 0.95).
     #[arg(long, default_value_t = 1000)]
     max_steps: usize,
+    /// align: settle a die of ⌈N/K²⌉ particles and run the alignment stage on K × K copies of
+    /// it laid side by side (its memory and cost at N whose settling would take hours; the
+    /// settling columns are the one die's).
+    #[arg(long, value_name = "K", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=1000))]
+    tiles: u32,
     /// align: settling rest criterion: rms (root-mean-square net force; the model's default)
     /// or max (largest net force; its cost explodes with N).
     #[arg(long, value_enum, default_value = "rms")]
