@@ -145,7 +145,6 @@ fn contact_forces_obey_action_equals_reaction() {
     for i in 0..position.len() {
         for c in contacts
             .of(i)
-            .iter()
             .filter(|c| c.partner != WALL && c.overlap > 0.0)
         {
             let f = -c.normal_force_at(c.overlap) * c.normal;

@@ -19,7 +19,7 @@ pub const LID: u32 = u32::MAX - 1;
 
 /// A rigid rectangular die [0, lx] × [0, ly] × [0, top] (reduced units); walls of the particle
 /// material.
-#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
 pub struct Container {
     /// Side length along x.
     pub lx: f64,
@@ -68,7 +68,7 @@ impl Contact {
 }
 
 /// Contact laws of one run in reduced units.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct ContactLaw {
     /// E*/E for a pair of particles (and a particle and a wall): 1/(2(1 − ν²)).
     pub effective_modulus: f64,
@@ -92,39 +92,64 @@ impl ContactLaw {
         container: &Container,
         mut emit: impl FnMut(Contact),
     ) {
+        self.coded_contacts_of(i, positions, radii, neighbors, container, |_, c| emit(c));
+    }
+
+    /// [`Self::contacts_of`], each contact with its code in a [`ContactSet`]: the partner's
+    /// index, or `SURFACE` + k for the k-th surface of [`wall_gaps`].
+    fn coded_contacts_of(
+        &self,
+        i: usize,
+        positions: &[Vector3<f64>],
+        radii: &[f64],
+        neighbors: &NeighborList,
+        container: &Container,
+        mut emit: impl FnMut(u32, Contact),
+    ) {
         let (p, r) = (positions[i], radii[i]);
         for &j in neighbors.of(i) {
             let ju = j as usize;
-            let d = positions[ju] - p;
             // Listed pairs reach out to the neighbour list's skin, most beyond this law's:
             // skip those on the squared distance (a margin far above round-off, so no pair
             // the exact test below would keep is skipped) before paying for the root.
             let reach = r + radii[ju] + self.skin;
-            let dist_squared = d.norm_squared();
-            if dist_squared > reach * reach * (1.0 + 1e-9) {
+            if (positions[ju] - p).norm_squared() > reach * reach * (1.0 + 1e-9) {
                 continue;
             }
-            let dist = dist_squared.sqrt();
-            let overlap = r + radii[ju] - dist;
-            if overlap > -self.skin && dist > 0.0 {
-                emit(Contact {
-                    partner: j,
-                    normal: d / dist,
-                    overlap,
-                    hertz: self.hertz_prefactor(r, Some(radii[ju])),
-                });
+            let (contact, dist) = self.pair(p, r, positions[ju], radii[ju], j);
+            if contact.overlap > -self.skin && dist > 0.0 {
+                emit(j, contact);
             }
         }
-        for (partner, normal, gap) in wall_gaps(p, container) {
-            let overlap = r - gap;
-            if overlap > -self.skin {
-                emit(Contact {
-                    partner,
-                    normal,
-                    overlap,
-                    hertz: self.hertz_prefactor(r, None),
-                });
+        for (k, (partner, normal, gap)) in wall_gaps(p, container).enumerate() {
+            let contact = self.wall(r, partner, normal, gap);
+            if contact.overlap > -self.skin {
+                emit(SURFACE + k as u32, contact);
             }
+        }
+    }
+
+    /// The contact of a sphere (centre p, radius r) with sphere j (centre q, radius r_j), and
+    /// their centres' distance.
+    fn pair(&self, p: Vector3<f64>, r: f64, q: Vector3<f64>, r_j: f64, j: u32) -> (Contact, f64) {
+        let d = q - p;
+        let dist = d.norm_squared().sqrt();
+        let contact = Contact {
+            partner: j,
+            normal: d / dist,
+            overlap: r + r_j - dist,
+            hertz: self.hertz_prefactor(r, Some(r_j)),
+        };
+        (contact, dist)
+    }
+
+    /// The contact of a sphere of radius r with a surface at centre distance `gap`.
+    fn wall(&self, r: f64, partner: u32, normal: Vector3<f64>, gap: f64) -> Contact {
+        Contact {
+            partner,
+            normal,
+            overlap: r - gap,
+            hertz: self.hertz_prefactor(r, None),
         }
     }
 
@@ -147,27 +172,65 @@ impl ContactLaw {
     }
 }
 
-/// Per-particle contact lists (compressed rows).
+/// Per-particle contact lists (compressed rows). Each listed contact is stored as its
+/// partner's code alone (4 bytes, not a 48-byte [`Contact`]); its geometry is recomputed from
+/// the positions of the rebuild, by the same operations, so every value is the same bits as
+/// when it was listed. The alignment stage at N = 10⁶ then peaks at 0.57 kB per particle, not
+/// 0.89 (results/bench/README.md, "Memory at N = 10⁶").
 #[derive(Debug, Clone, Default)]
 pub struct ContactSet {
     offsets: Vec<usize>,
-    contacts: Vec<Contact>,
+    codes: Vec<u32>,
+    position: Vec<Vector3<f64>>,
+    radius: Vec<f64>,
+    container: Container,
+    law: ContactLaw,
+    max_overlap: f64,
 }
 
+/// Codes from here on mark surfaces in a [`ContactSet`]: `SURFACE` + k is the k-th entry of
+/// [`wall_gaps`] (particle indices stay below it).
+const SURFACE: u32 = u32::MAX - 8;
+
 impl ContactSet {
-    /// Contacts of particle i.
-    pub fn of(&self, i: usize) -> &[Contact] {
-        &self.contacts[self.offsets[i]..self.offsets[i + 1]]
+    /// Contacts of particle i, in list order.
+    pub fn of(&self, i: usize) -> impl ExactSizeIterator<Item = Contact> + Clone + '_ {
+        self.slots(i).map(move |slot| self.contact(i, slot))
     }
 
-    /// Positions of particle i's contacts in `all`.
+    /// Particle i's contact in slot `slot` (one of [`Self::slots`]`(i)`).
+    pub fn contact(&self, i: usize, slot: usize) -> Contact {
+        let (code, p, r) = (self.codes[slot], self.position[i], self.radius[i]);
+        if code < SURFACE {
+            let j = code as usize;
+            self.law
+                .pair(p, r, self.position[j], self.radius[j], code)
+                .0
+        } else {
+            let (partner, normal, gap) = wall_gaps(p, &self.container)
+                .nth((code - SURFACE) as usize)
+                .expect("a listed surface exists");
+            self.law.wall(r, partner, normal, gap)
+        }
+    }
+
+    /// Positions of particle i's contacts in the set's slots.
     pub fn slots(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i]..self.offsets[i + 1]
     }
 
-    /// All listed contacts, both directions.
-    pub fn all(&self) -> &[Contact] {
-        &self.contacts
+    /// Where particle j lists particle i, if it does.
+    pub fn slot_of(&self, j: usize, i: usize) -> Option<usize> {
+        let slots = self.slots(j);
+        let at = self.codes[slots.clone()]
+            .iter()
+            .position(|&code| code as usize == i);
+        at.map(|k| slots.start + k)
+    }
+
+    /// Number of particles.
+    pub fn particles(&self) -> usize {
+        self.radius.len()
     }
 
     /// Rebuilds the lists for the given positions, reusing the allocation.
@@ -179,6 +242,11 @@ impl ContactSet {
         container: &Container,
         law: &ContactLaw,
     ) {
+        self.position.clear();
+        self.position.extend_from_slice(positions);
+        self.radius.clear();
+        self.radius.extend_from_slice(radii);
+        (self.container, self.law) = (*container, *law);
         // Two parallel passes (count, then fill each particle's own slice): the same lists
         // in the same order as a serial loop, at any thread count.
         let counts: Vec<usize> = (0..positions.len())
@@ -194,28 +262,34 @@ impl ContactSet {
         for c in &counts {
             self.offsets.push(self.offsets.last().unwrap() + c);
         }
-        self.contacts.clear();
-        self.contacts
-            .resize(*self.offsets.last().unwrap(), Contact::default());
+        self.codes.clear();
+        self.codes.resize(*self.offsets.last().unwrap(), 0);
         let mut slices = Vec::with_capacity(counts.len());
-        let mut rest = &mut self.contacts[..];
+        let mut rest = &mut self.codes[..];
         for &c in &counts {
             let (mine, tail) = rest.split_at_mut(c);
             slices.push(mine);
             rest = tail;
         }
-        slices.into_par_iter().enumerate().for_each(|(i, slot)| {
-            let mut k = 0;
-            law.contacts_of(i, positions, radii, neighbors, container, |c| {
-                slot[k] = c;
-                k += 1;
-            });
-        });
+        // the largest overlap: a maximum, the same at any grouping
+        self.max_overlap = slices
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, slot)| {
+                let (mut k, mut deepest) = (0, 0.0_f64);
+                law.coded_contacts_of(i, positions, radii, neighbors, container, |code, c| {
+                    slot[k] = code;
+                    k += 1;
+                    deepest = deepest.max(c.overlap);
+                });
+                deepest
+            })
+            .reduce(|| 0.0, f64::max);
     }
 
     /// Largest overlap over all contacts (0 if none).
     pub fn max_overlap(&self) -> f64 {
-        self.contacts.iter().map(|c| c.overlap).fold(0.0, f64::max)
+        self.max_overlap
     }
 }
 
@@ -261,6 +335,54 @@ pub(crate) fn pressed_pair(friction: f64) -> (Vec<Vector3<f64>>, Vec<f64>, Conta
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// The set stores codes alone; the contacts it gives back are the law's, bit for bit,
+    /// walls and lid included, and its largest overlap is theirs.
+    #[test]
+    fn a_set_gives_back_the_laws_contacts_bit_for_bit() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let container = Container {
+            lx: 12.0,
+            ly: 10.0,
+            top: Some(9.0),
+        };
+        let radii: Vec<f64> = (0..400).map(|_| 0.8 + 0.4 * rng.random::<f64>()).collect();
+        let positions: Vec<Vector3<f64>> = (0..400)
+            .map(|_| Vector3::from_fn(|k, _| [12.0, 10.0, 9.0][k] * rng.random::<f64>()))
+            .collect();
+        let law = ContactLaw {
+            effective_modulus: 0.55,
+            friction: 0.2,
+            wall_friction: 0.3,
+            skin: 0.2,
+        };
+        let mut list = NeighborList::new(0.3);
+        list.build(&positions, &radii);
+        let mut set = ContactSet::default();
+        set.rebuild(&positions, &radii, &list, &container, &law);
+        let bits = |c: &Contact| {
+            let n = c.normal;
+            [n.x, n.y, n.z, c.overlap, c.hertz].map(f64::to_bits)
+        };
+        let (mut walls, mut lid, mut deepest) = (0, 0, 0.0_f64);
+        for i in 0..positions.len() {
+            let mut expected = Vec::new();
+            law.contacts_of(i, &positions, &radii, &list, &container, |c| {
+                expected.push(c)
+            });
+            let stored: Vec<Contact> = set.of(i).collect();
+            assert_eq!(stored.len(), expected.len());
+            for (a, b) in stored.iter().zip(&expected) {
+                assert_eq!((a.partner, bits(a)), (b.partner, bits(b)));
+                walls += usize::from(a.partner == WALL);
+                lid += usize::from(a.partner == LID);
+                deepest = deepest.max(a.overlap);
+            }
+        }
+        assert!(walls > 10 && lid > 5, "{walls} wall and {lid} lid contacts");
+        assert_eq!(set.max_overlap(), deepest);
+    }
 
     #[test]
     fn hertz_force_matches_formula() {

@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 
 use super::contacts::{Contact, ContactLaw, ContactSet, LID};
 use super::velocity::{
-    relax_lid, solve_particle, Motion, Schedule, SolveStats, SolverControl, Stage,
+    relax_lid, solve_particle, Local, Motion, Schedule, SolveStats, SolverControl, Stage, Terms,
 };
 
 /// A contact's identity across solves: particle, partner, and for a wall which one (its
@@ -43,20 +43,14 @@ impl FrictionForces {
     /// Aligns the forces with the stage's contacts, each starting from its value in the last
     /// solve projected onto its current tangent disc.
     fn prepare(&mut self, contacts: &ContactSet, law: &ContactLaw, n: usize) {
-        let all = contacts.all();
         self.force.clear();
         self.mirror.clear();
         for i in 0..n {
             for c in contacts.of(i) {
-                let start = self.previous.get(&key(i, c)).copied().unwrap_or_default();
-                self.force.push(project(start, c.normal, bound(law, c)));
-                self.mirror.push(c.particle().and_then(|j| {
-                    let slots = contacts.slots(j);
-                    let at = all[slots.clone()]
-                        .iter()
-                        .position(|d| d.partner as usize == i);
-                    at.map(|k| slots.start + k)
-                }));
+                let start = self.previous.get(&key(i, &c)).copied().unwrap_or_default();
+                self.force.push(project(start, c.normal, bound(law, &c)));
+                self.mirror
+                    .push(c.particle().and_then(|j| contacts.slot_of(j, i)));
             }
         }
     }
@@ -65,9 +59,9 @@ impl FrictionForces {
     fn remember(&mut self, contacts: &ContactSet, n: usize) {
         self.previous.clear();
         for i in 0..n {
-            for (c, f) in contacts.of(i).iter().zip(&self.force[contacts.slots(i)]) {
+            for (c, f) in contacts.of(i).zip(&self.force[contacts.slots(i)]) {
                 if *f != Vector3::zeros() {
-                    self.previous.insert(key(i, c), *f);
+                    self.previous.insert(key(i, &c), *f);
                 }
             }
         }
@@ -134,8 +128,9 @@ pub fn solve(
         stats.sweeps += 1;
         let w = *lid_velocity;
         let mut largest_change: f64 = 0.0;
+        let mut terms = Terms::default();
         for i in schedule.order() {
-            let moved = relax_particle(&smooth, i, motion, w, friction, plain);
+            let moved = relax_particle(&smooth, (i, w), motion, &mut terms, friction, plain);
             let slipped = relax_friction(stage, i, motion, w, friction);
             largest_change = largest_change.max(moved).max(slipped);
         }
@@ -156,27 +151,27 @@ pub fn solve(
 /// returns the size of its change.
 fn relax_particle(
     smooth: &Stage,
-    i: usize,
+    (i, lid_velocity): (usize, f64),
     motion: &mut [Motion],
-    lid_velocity: f64,
+    terms: &mut Terms,
     friction: &FrictionForces,
     control: SolverControl,
 ) -> f64 {
-    let (contacts, r) = (smooth.contacts.of(i), smooth.radius[i]);
+    let r = smooth.radius[i];
     let mut force = smooth.force[i];
     let mut torque = smooth.torque[i];
-    for (c, f) in contacts
-        .iter()
+    for (c, f) in smooth
+        .contacts
+        .of(i)
         .zip(&friction.force[smooth.contacts.slots(i)])
     {
         force += f;
         torque += r * c.normal.cross(f);
     }
-    let partners = contacts
-        .iter()
-        .map(|c| smooth.partner_velocity(c, lid_velocity, |j| motion[j]));
+    let partner_velocity = |c: &Contact| smooth.partner_velocity(c, lid_velocity, |j| motion[j]);
+    let local = Local::new(smooth, i, (force, torque), terms, partner_velocity);
     let old = motion[i];
-    let new = solve_particle(smooth, i, force, torque, old, partners, control);
+    let new = solve_particle(&local, old, control);
     motion[i] = new;
     (new.v - old.v).norm() + r * (new.w - old.w).norm()
 }
@@ -191,8 +186,8 @@ fn relax_friction(
     friction: &mut FrictionForces,
 ) -> f64 {
     let mut largest_change: f64 = 0.0;
-    for (k, slot) in stage.contacts.slots(i).enumerate() {
-        let c = stage.contacts.of(i)[k];
+    for slot in stage.contacts.slots(i) {
+        let c = stage.contacts.contact(i, slot);
         let limit = bound(stage.law, &c);
         if limit == 0.0 {
             continue;
@@ -234,7 +229,7 @@ mod tests {
     /// `slip_scale` when given.
     fn spun_pair(spin: f64, slip_scale: Option<f64>) -> (Vec<Motion>, f64) {
         let (positions, radius, law, contacts) = pressed_pair(0.5);
-        let c = contacts.of(0)[0];
+        let c = contacts.contact(0, 0);
         let push = c.normal_force_at(c.overlap);
         let torque = vec![Vector3::new(0.0, 0.0, spin); 2];
         let force = vec![Vector3::new(push, 0.0, 0.0), Vector3::new(-push, 0.0, 0.0)];

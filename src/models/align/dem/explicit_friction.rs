@@ -24,7 +24,7 @@ pub fn add_previous_iterate_friction(
 ) {
     for (i, m) in motion.iter().enumerate() {
         for c in contacts.of(i) {
-            let bound = law.friction_of(c) * c.normal_force_at(c.overlap);
+            let bound = law.friction_of(&c) * c.normal_force_at(c.overlap);
             if bound == 0.0 {
                 continue;
             }
@@ -63,7 +63,7 @@ mod tests {
         ];
         let (mut force, mut torque) = (vec![Vector3::zeros(); 2], vec![Vector3::zeros(); 2]);
         add_previous_iterate_friction(&contacts, &law, &radius, &motion, &mut force, &mut torque);
-        let c = contacts.of(0)[0];
+        let c = contacts.contact(0, 0);
         let bound = 0.3 * c.normal_force_at(c.overlap);
         assert!((force[0] - Vector3::new(0.0, -bound, 0.0)).norm() < 1e-15 * bound);
         assert!((force[0] + force[1]).norm() < 1e-15 * bound);

@@ -39,9 +39,9 @@ pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
     let (mut loaded, mut sticking) = (0usize, 0usize);
     for (i, m) in motion.iter().enumerate() {
         for c in stage.contacts.of(i) {
-            if stage.law.friction_of(c) > 0.0 && c.overlap > 0.0 {
+            if stage.law.friction_of(&c) > 0.0 && c.overlap > 0.0 {
                 // the lid moves along its normal only: its speed adds no slip
-                let partner = stage.partner_velocity(c, 0.0, |j| motion[j]);
+                let partner = stage.partner_velocity(&c, 0.0, |j| motion[j]);
                 let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
                 let slip = rel - rel.dot(&c.normal) * c.normal;
                 loaded += 1;
@@ -55,15 +55,15 @@ pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
 /// Number of touching pairs (each listed from both sides, counted once) plus touching wall
 /// contacts.
 pub fn touching(contacts: &ContactSet) -> usize {
-    let all = contacts.all();
-    let pairs = all
-        .iter()
-        .filter(|c| c.overlap > 0.0 && c.particle().is_some())
-        .count();
-    let walls = all
-        .iter()
-        .filter(|c| c.overlap > 0.0 && c.particle().is_none())
-        .count();
+    let touching =
+        (0..contacts.particles()).flat_map(|i| contacts.of(i).filter(|c| c.overlap > 0.0));
+    let (mut pairs, mut walls) = (0, 0);
+    for c in touching {
+        match c.particle() {
+            Some(_) => pairs += 1,
+            None => walls += 1,
+        }
+    }
     pairs / 2 + walls
 }
 

@@ -54,7 +54,7 @@ pub fn frame(
     let cos_theta = axes.iter().map(|a| a.z.abs()).collect();
     let omega = state.motion.iter().map(|m| m.w / scales.time).collect();
     let touching = (0..n)
-        .map(|i| contacts.of(i).iter().filter(|c| c.overlap > 0.0).count() as f64)
+        .map(|i| contacts.of(i).filter(|c| c.overlap > 0.0).count() as f64)
         .collect();
     frame
         .with(Property::vector("easy_axis", "1", axes))

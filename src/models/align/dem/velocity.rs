@@ -95,9 +95,8 @@ impl Stage<'_> {
             .flat_map(|i| {
                 self.contacts
                     .of(i)
-                    .iter()
                     .filter(|c| c.partner == LID)
-                    .map(move |c| (i, *c))
+                    .map(move |c| (i, c))
             })
             .collect()
     }
@@ -217,11 +216,14 @@ fn sweep(
     for colour in &schedule.colours {
         let sweep_cell = |cell: &Vec<u32>| {
             let mut change: f64 = 0.0;
+            let mut terms = Terms::default();
             for &i in cell {
+                let at = (i as usize, w);
                 // SAFETY: the colouring invariant of `Schedule`: while this colour's cells
                 // are relaxed concurrently, particle i and its listed partners are written
                 // by this task alone (same cell) or by no task (other colours).
-                unsafe { change = change.max(relax(stage, &velocities, i as usize, w, control)) };
+                let relaxed = unsafe { relax(stage, &velocities, at, &mut terms, control) };
+                change = change.max(relaxed);
             }
             change
         };
@@ -335,42 +337,80 @@ impl<'a> Velocities<'a> {
 unsafe fn relax(
     stage: &Stage,
     velocities: &Velocities,
-    i: usize,
-    lid_velocity: f64,
+    (i, lid_velocity): (usize, f64),
+    terms: &mut Terms,
     control: SolverControl,
 ) -> f64 {
     // SAFETY: particle i is this task's alone (the caller's contract).
     let old = unsafe { velocities.read(i) };
-    let partners = stage.contacts.of(i).iter().map(|c| {
+    let partner_velocity = |c: &Contact| {
         // SAFETY: j is a listed partner of i (the caller's contract).
         stage.partner_velocity(c, lid_velocity, |j| unsafe { velocities.read(j) })
-    });
-    let new = solve_particle(
-        stage,
-        i,
-        stage.force[i],
-        stage.torque[i],
-        old,
-        partners,
-        control,
-    );
+    };
+    let loads = (stage.force[i], stage.torque[i]);
+    let local = Local::new(stage, i, loads, terms, partner_velocity);
+    let new = solve_particle(&local, old, control);
     // SAFETY: as for the read of `old`.
     unsafe { velocities.write(i, new) };
     (new.v - old.v).norm() + stage.radius[i] * (new.w - old.w).norm()
 }
 
 /// The local problem of particle i with every other particle's motion held fixed.
-struct Local<'a> {
+pub(super) struct Local<'a> {
     stage: &'a Stage<'a>,
     radius: f64,
     force: Vector3<f64>,
     torque: Vector3<f64>,
-    contacts: &'a [Contact],
-    /// Per contact (list order): what the partner and the start of the stage fix.
-    partner: [Partner; 32],
-    overflow: Vec<Partner>,
+    terms: &'a Terms,
     /// v_ε².
     slip_scale_squared: f64,
+}
+
+/// A particle's contact terms in list order: each contact with what its partner and the
+/// start of the stage fix. Room reused from visit to visit (a task's particles one after
+/// another): the first 32 in place, any further ones in `overflow`.
+#[derive(Default)]
+pub(super) struct Terms {
+    listed: [(Contact, Partner); 32],
+    count: usize,
+    overflow: Vec<(Contact, Partner)>,
+}
+
+impl Terms {
+    /// Particle i's contacts, the partners' surface velocities held at `partner_velocity`.
+    fn fill(
+        &mut self,
+        stage: &Stage,
+        i: usize,
+        partner_velocity: impl Fn(&Contact) -> Vector3<f64>,
+    ) {
+        self.count = 0;
+        self.overflow.clear();
+        for c in stage.contacts.of(i) {
+            let bound = stage.law.friction_of(&c) * c.normal_force_at(c.overlap);
+            let term = (
+                c,
+                Partner {
+                    velocity: partner_velocity(&c),
+                    bound,
+                },
+            );
+            match self.listed.get_mut(self.count) {
+                Some(slot) => {
+                    *slot = term;
+                    self.count += 1;
+                }
+                None => self.overflow.push(term),
+            }
+        }
+    }
+
+    fn iter(&self) -> impl Iterator<Item = (&Contact, &Partner)> {
+        self.listed[..self.count]
+            .iter()
+            .chain(&self.overflow)
+            .map(|(c, p)| (c, p))
+    }
 }
 
 /// What a contact's terms of the local Φ hold fixed: the partner's surface velocity and the
@@ -383,12 +423,31 @@ struct Partner {
     bound: f64,
 }
 
-impl Local<'_> {
+impl<'a> Local<'a> {
+    /// Particle i's problem under the external `force` and `torque`, the surface velocity of
+    /// each contact's partner held at `partner_velocity` (taken once per contact); `terms`
+    /// holds the contact terms.
+    pub(super) fn new(
+        stage: &'a Stage<'a>,
+        i: usize,
+        (force, torque): (Vector3<f64>, Vector3<f64>),
+        terms: &'a mut Terms,
+        partner_velocity: impl Fn(&Contact) -> Vector3<f64>,
+    ) -> Self {
+        terms.fill(stage, i, partner_velocity);
+        Self {
+            stage,
+            radius: stage.radius[i],
+            force,
+            torque,
+            terms,
+            slip_scale_squared: stage.slip_scale.powi(2),
+        }
+    }
+
     /// The contacts with their fixed partner data, in list order.
     fn terms(&self) -> impl Iterator<Item = (&Contact, &Partner)> {
-        let listed = self.contacts.len().min(self.partner.len());
-        let partners = self.partner[..listed].iter().chain(&self.overflow);
-        self.contacts.iter().zip(partners)
+        self.terms.iter()
     }
 
     /// Whether no contact of the particle can carry friction (μ F_n = 0 at every contact).
@@ -477,40 +536,11 @@ impl Local<'_> {
     }
 }
 
-/// Damped Newton on particle i's local problem under the external `force` and `torque`,
-/// started at `start`, with the surface velocity of each listed partner (in contact-list
-/// order) held fixed; then over-relaxed to start + ω (minimizer − start) where that keeps at
+/// Damped Newton on a particle's local problem, started at `start`; then over-relaxed to start + ω (minimizer − start) where that keeps at
 /// least half of the minimizer's decrease of Φ (as it does for ω ≤ 1 + 1/√2 on a quadratic):
 /// every visit lowers Φ, and the fixed point, the minimizer of Φ, is the same.
-pub(super) fn solve_particle(
-    stage: &Stage,
-    i: usize,
-    force: Vector3<f64>,
-    torque: Vector3<f64>,
-    start: Motion,
-    partners: impl Iterator<Item = Vector3<f64>>,
-    control: SolverControl,
-) -> Motion {
-    let mut local = Local {
-        stage,
-        radius: stage.radius[i],
-        force,
-        torque,
-        contacts: stage.contacts.of(i),
-        partner: [Partner::default(); 32],
-        overflow: Vec::new(),
-        slip_scale_squared: stage.slip_scale.powi(2),
-    };
-    for (k, (velocity, c)) in partners.zip(local.contacts).enumerate() {
-        let bound = stage.law.friction_of(c) * c.normal_force_at(c.overlap);
-        let partner = Partner { velocity, bound };
-        if k < local.partner.len() {
-            local.partner[k] = partner;
-        } else {
-            local.overflow.push(partner);
-        }
-    }
-    let (mut u, [phi_start, phi_end]) = newton(&local, start, LOCAL_TOLERANCE * control.tolerance);
+pub(super) fn solve_particle(local: &Local, start: Motion, control: SolverControl) -> Motion {
+    let (mut u, [phi_start, phi_end]) = newton(local, start, LOCAL_TOLERANCE * control.tolerance);
     let omega = control.over_relaxation;
     if omega != 1.0 {
         let beyond = Motion {
@@ -607,7 +637,7 @@ mod tests {
     #[test]
     fn friction_opposes_spin_and_pair_forces_balance() {
         let (positions, radius, law, contacts) = pressed_pair(0.5);
-        let fn0 = contacts.of(0)[0].normal_force_at(0.01);
+        let fn0 = contacts.contact(0, 0).normal_force_at(0.01);
         // Same-sense spin about z: surfaces slide against each other at the contact.
         let torque = vec![Vector3::new(0.0, 0.0, 1e-3), Vector3::new(0.0, 0.0, 1e-3)];
         // Equal and opposite pushes hold the overlap steady.
@@ -733,21 +763,14 @@ mod tests {
             slip_scale: 1e-3,
             lid: None,
         };
-        let c = stage.contacts.of(0)[0];
-        let mut local = Local {
-            stage: &stage,
-            radius: 1.0,
-            force: Vector3::new(1e-4, -2e-4, 3e-4),
-            torque: Vector3::new(-2e-4, 1e-4, 5e-4),
-            contacts: stage.contacts.of(0),
-            partner: [Partner::default(); 32],
-            overflow: Vec::new(),
-            slip_scale_squared: 1e-6,
-        };
-        local.partner[0] = Partner {
-            velocity: Vector3::new(-1e-3, 2e-3, 1e-3),
-            bound: law.friction_of(&c) * c.normal_force_at(c.overlap),
-        };
+        let loads = (
+            Vector3::new(1e-4, -2e-4, 3e-4),
+            Vector3::new(-2e-4, 1e-4, 5e-4),
+        );
+        let mut terms = Terms::default();
+        let local = Local::new(&stage, 0, loads, &mut terms, |_| {
+            Vector3::new(-1e-3, 2e-3, 1e-3)
+        });
         let at = |x: &Vector6<f64>| Motion {
             v: x.fixed_rows::<3>(0).into(),
             w: x.fixed_rows::<3>(3).into(),
