@@ -82,22 +82,10 @@ pub struct ContactLaw {
 }
 
 impl ContactLaw {
-    /// Emits the contacts of particle i: listed neighbours and walls closer than the skin.
+    /// Emits the contacts of particle i: listed neighbours and walls closer than the skin,
+    /// each with its code in a [`ContactSet`] (the partner's index, or `SURFACE` + k for the
+    /// k-th surface of [`wall_gaps`]).
     pub fn contacts_of(
-        &self,
-        i: usize,
-        positions: &[Vector3<f64>],
-        radii: &[f64],
-        neighbors: &NeighborList,
-        container: &Container,
-        mut emit: impl FnMut(Contact),
-    ) {
-        self.coded_contacts_of(i, positions, radii, neighbors, container, |_, c| emit(c));
-    }
-
-    /// [`Self::contacts_of`], each contact with its code in a [`ContactSet`]: the partner's
-    /// index, or `SURFACE` + k for the k-th surface of [`wall_gaps`].
-    fn coded_contacts_of(
         &self,
         i: usize,
         positions: &[Vector3<f64>],
@@ -175,8 +163,8 @@ impl ContactLaw {
 /// Per-particle contact lists (compressed rows). Each listed contact is stored as its
 /// partner's code alone (4 bytes, not a 48-byte [`Contact`]); its geometry is recomputed from
 /// the positions of the rebuild, by the same operations, so every value is the same bits as
-/// when it was listed. The alignment stage at N = 10⁶ then peaks at 0.57 kB per particle, not
-/// 0.89 (results/bench/README.md, "Memory at N = 10⁶").
+/// when it was listed. The alignment stage at N = 10⁶ then peaks at 0.58 kB per particle, not
+/// 0.91 (results/bench/README.md, "Memory at N = 10⁶").
 #[derive(Debug, Clone, Default)]
 pub struct ContactSet {
     offsets: Vec<usize>,
@@ -253,7 +241,7 @@ impl ContactSet {
             .into_par_iter()
             .map(|i| {
                 let mut count = 0;
-                law.contacts_of(i, positions, radii, neighbors, container, |_| count += 1);
+                law.contacts_of(i, positions, radii, neighbors, container, |_, _| count += 1);
                 count
             })
             .collect();
@@ -277,7 +265,7 @@ impl ContactSet {
             .enumerate()
             .map(|(i, slot)| {
                 let (mut k, mut deepest) = (0, 0.0_f64);
-                law.coded_contacts_of(i, positions, radii, neighbors, container, |code, c| {
+                law.contacts_of(i, positions, radii, neighbors, container, |code, c| {
                     slot[k] = code;
                     k += 1;
                     deepest = deepest.max(c.overlap);
@@ -368,7 +356,7 @@ mod tests {
         let (mut walls, mut lid, mut deepest) = (0, 0, 0.0_f64);
         for i in 0..positions.len() {
             let mut expected = Vec::new();
-            law.contacts_of(i, &positions, &radii, &list, &container, |c| {
+            law.contacts_of(i, &positions, &radii, &list, &container, |_, c| {
                 expected.push(c)
             });
             let stored: Vec<Contact> = set.of(i).collect();

@@ -289,7 +289,7 @@ impl Loads<'_> {
                 0,
             );
             self.law
-                .contacts_of(i, position, self.radius, list, container, |c| {
+                .contacts_of(i, position, self.radius, list, container, |_, c| {
                     let (f, k) = self.repulsion.force_and_stiffness(&c);
                     slot.0 -= f * c.normal;
                     slot.1 += k;
@@ -592,20 +592,22 @@ fn sample_orientations(n: usize, seed: u64) -> Vec<UnitQuaternion<f64>> {
 mod tests {
     use super::*;
 
+    /// The packing parameters of Sr ferrite at the model's defaults.
+    fn sr_ferrite() -> PackingParams {
+        let material = crate::materials::MaterialDb::builtin()
+            .get("srfe12o19")
+            .unwrap()
+            .clone();
+        crate::models::align::AlignParams::paper_defaults(material, 0.0).packing()
+    }
+
     /// Tiles are copies side by side: N and the die grow by tiles², every sphere stays in the
     /// die, the packing fraction is the die's, and spheres of neighbouring copies overlap at
     /// most as much as two spheres each touching the shared wall may (the relaxation's
     /// overlap tolerance on either side).
     #[test]
     fn tiled_packings_are_side_by_side_copies() {
-        let mut params = crate::models::align::AlignParams::paper_defaults(
-            crate::materials::MaterialDb::builtin()
-                .get("srfe12o19")
-                .unwrap()
-                .clone(),
-            0.0,
-        )
-        .packing();
+        let mut params = sr_ferrite();
         params.particles = 150;
         let die = Packing::generate(&params, 2).unwrap();
         let bed = die.tiled(3);
@@ -652,14 +654,7 @@ mod tests {
     /// centre and orientation.
     #[test]
     fn cell_ordered_start_is_the_drawn_start_relabelled() {
-        let mut params = crate::models::align::AlignParams::paper_defaults(
-            crate::materials::MaterialDb::builtin()
-                .get("srfe12o19")
-                .unwrap()
-                .clone(),
-            0.0,
-        )
-        .packing();
+        let mut params = sr_ferrite();
         params.particles = 2000;
         let mut start = |cell_order_from: usize| {
             params.numerics.cell_order_from = cell_order_from;
