@@ -6,7 +6,11 @@
 //! included; each pair from both sides, the lists being full), and
 //! `settle_contact_evaluations_per_s`, touching pairs evaluated per second counted once each
 //! (the count LAMMPS with Newton's third law on evaluates, bench/lammps/align-hertz.sh), also
-//! per CPU second (per core on a loaded machine).
+//! per CPU second (per core on a loaded machine). `loaded_contacts_per_particle` and
+//! `released_contacts_per_particle` (printed as `z_rel`) are the particle contacts per particle
+//! at the end of settling (the settling force on) and of the relaxation (the packing the
+//! alignment starts from): whether the released bed kept its contact network
+//! (results/bench/README.md, "The released bed").
 
 use serde_json::json;
 use std::time::Instant;
@@ -39,7 +43,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
         );
     }
     println!(
-        "{:>7} {:>3} {:>9} {:>8} {:>11} {:>9} {:>10} {:>6} {:>7} {:>9} {:>10} {:>8} {:>7}",
+        "{:>7} {:>3} {:>9} {:>8} {:>11} {:>9} {:>10} {:>5} {:>6} {:>7} {:>9} {:>10} {:>8} {:>7}",
         "N",
         "thr",
         "settle s",
@@ -47,6 +51,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
         "p-steps/s",
         "contacts",
         "contacts/s",
+        "z_rel",
         "steps",
         "sweeps",
         "align s",
@@ -79,6 +84,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let contacts_per_particle = per_particle(|w| w.contacts);
             // touching pairs, each once
             let contact_evaluations = 0.5 * total(|w| w.contacts);
+            let [_, loaded, released] = work.map(|w| w.final_contacts as f64 / die as f64);
             let settle_steps: usize = packing.steps.iter().sum();
             params.max_time = (args.max_steps as f64 - 0.5) * dem::time_step_s(&params, &packing);
             let outcome = pool.install(|| dem::align(&params, &packing, None));
@@ -86,7 +92,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let align_rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
             let peak_mb = peak_rss_mb();
             println!(
-                "{n:>7} {t:>3} {settle_s:>9.1} {settle_steps:>8} {settle_rate:>11.3e} {contacts_per_particle:>9.2} {:>10.3e} {:>6} {:>7} {:>9.2} {align_rate:>10.3e} {:>8.4} {peak_mb:>7.1}",
+                "{n:>7} {t:>3} {settle_s:>9.1} {settle_steps:>8} {settle_rate:>11.3e} {contacts_per_particle:>9.2} {:>10.3e} {released:>5.2} {:>6} {:>7} {:>9.2} {align_rate:>10.3e} {:>8.4} {peak_mb:>7.1}",
                 contact_evaluations / settle_s,
                 outcome.steps,
                 outcome.solver_sweeps,
@@ -108,6 +114,8 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
                 "settle_list_entries_per_particle": per_particle(|w| w.list_entries),
                 "settle_contact_evaluations_per_s": contact_evaluations / settle_s,
                 "settle_contact_evaluations_per_cpu_s": contact_evaluations / settle_cpu_s,
+                "loaded_contacts_per_particle": loaded,
+                "released_contacts_per_particle": released,
                 "align_steps": outcome.steps,
                 "align_solver_sweeps": outcome.solver_sweeps,
                 "align_s": outcome.wall_time_s,

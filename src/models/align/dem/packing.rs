@@ -350,6 +350,9 @@ pub struct ContactWork {
     /// Ordered touching particle pairs (i, j) whose contact force was evaluated: each contact
     /// twice, once from either side.
     pub contacts: u64,
+    /// The ordered touching pairs of the last evaluation, at the stage's final positions:
+    /// over N, the mean particle contacts per particle the stage ends with (overlap > 0).
+    pub final_contacts: u64,
 }
 
 impl ContactWork {
@@ -357,6 +360,7 @@ impl ContactWork {
         self.evaluations += 1;
         self.list_entries += list_entries as u64;
         self.contacts += contacts as u64;
+        self.final_contacts = contacts as u64;
     }
 }
 
@@ -634,6 +638,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The relaxation's final contact count is the packing's: every pair of spheres that
+    /// overlaps at all, counted from both sides (a brute-force count over all pairs).
+    #[test]
+    fn the_released_contact_count_is_the_packings() {
+        let mut params = sr_ferrite();
+        params.particles = 300;
+        let (bed, work) = Packing::generate_counted(&params, 5).unwrap();
+        let n = bed.radius.len();
+        let touching = (0..n)
+            .flat_map(|i| ((i + 1)..n).map(move |j| (i, j)))
+            .filter(|&(i, j)| {
+                (bed.position[j] - bed.position[i]).norm() < bed.radius[i] + bed.radius[j]
+            })
+            .count();
+        assert_eq!(work[2].final_contacts, 2 * touching as u64);
+        assert!(
+            work[1].final_contacts > work[2].final_contacts,
+            "loading adds contacts"
+        );
     }
 
     #[test]
