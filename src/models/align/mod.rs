@@ -16,7 +16,8 @@ pub mod study;
 use serde::Serialize;
 
 pub use params::{
-    AlignParams, FrictionScheme, MomentBranch, Numerics, PressureMode, RestMeasure, SettlingScheme,
+    AlignParams, FrictionScheme, MomentBranch, Numerics, PressureMode, ReleaseScheme, RestMeasure,
+    SettlingScheme,
 };
 
 /// Which implementation evaluates a run.

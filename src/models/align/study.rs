@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use super::dem::{self, Packing};
 use super::{
     run_ensemble, AlignOutcome, AlignParams, FrictionScheme, ModelKind, MomentBranch, PressureMode,
-    SettlingScheme, Status,
+    ReleaseScheme, SettlingScheme, Status,
 };
 use crate::materials::MaterialDb;
 use crate::study::model::{
@@ -144,6 +144,17 @@ static PARAMETERS: &[AlignParam] = &[
         [
             ("fire", SettlingScheme::Fire),
             ("source-dropped", SettlingScheme::SourceDropped)
+        ]
+    ),
+    choice_param!(
+        "release_scheme",
+        "How the settled bed is released when the settling force is switched off: overdamped \
+         (the overlaps relax by the inertia-free motion γ ẋ = F, backward-Euler steps) or \
+         inertial (FIRE straight from the loaded bed: the protocol before 2026-12-03)",
+        params.numerics.release_scheme,
+        [
+            ("overdamped", ReleaseScheme::Overdamped),
+            ("inertial", ReleaseScheme::Inertial)
         ]
     ),
     Param {

@@ -11,7 +11,9 @@
 //!   `rest_measure = rms`, the root-mean-square) net force is below `rest_speed` × the settling
 //!   force (an overdamped particle would move slower than that fraction of its free-fall
 //!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
-//!   the largest is below `overlap_tolerance`.
+//!   the largest is below `overlap_tolerance`: by default without inertia, as the model moves
+//!   (`release_scheme = overdamped`, backward-Euler steps each solved by FIRE: `release`), or
+//!   by FIRE straight from the loaded bed (`inertial`, the protocol before 2026-12-03).
 //!
 //! FIRE's time step is capped at 0.3/√k_max in every stage, with unit masses, except settling
 //! from `large_bed_from` particles on, which uses `settling_step` and masses proportional to
@@ -31,9 +33,12 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use super::contacts::{ContactLaw, Container};
-use crate::models::align::params::{PackingParams, RestMeasure, SettlingScheme};
+use crate::models::align::params::{PackingParams, ReleaseScheme, RestMeasure, SettlingScheme};
 use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
+
+mod release;
+use release::Anchor;
 
 /// Largest displacement of any particle in one packing step, R_av.
 const MAX_MOVE: f64 = 0.05;
@@ -73,6 +78,27 @@ impl Packing {
         params: &PackingParams,
         seed: u64,
     ) -> Result<(Self, [ContactWork; 3]), String> {
+        let n = &params.numerics;
+        let (mut packing, stages, mut work) = Self::loaded(params, seed)?;
+        let overdamped = n.release_scheme == ReleaseScheme::Overdamped;
+        (packing.steps[2], work[2]) = match stages.settling.scheme {
+            SettlingScheme::Fire if overdamped => {
+                packing.release(&stages, n.release_step, n.overlap_tolerance)?
+            }
+            // the source's Heun steps are the overdamped motion itself
+            _ => packing.flow(&stages.law, &stages.settling, stages.relax, None, |s| {
+                s.max_overlap < n.overlap_tolerance
+            })?,
+        };
+        Ok((packing, work))
+    }
+
+    /// Stages 1 and 2 and the settling of stage 3: the bed still pressed by the settling
+    /// force, the die open; with the forces the release uses.
+    fn loaded(
+        params: &PackingParams,
+        seed: u64,
+    ) -> Result<(Self, Stages, [ContactWork; 3]), String> {
         let mut packing = random_start(params, seed);
         let law = ContactLaw {
             effective_modulus: 1.0 / (2.0 * (1.0 - params.poisson_ratio.powi(2))),
@@ -90,12 +116,13 @@ impl Packing {
             fire_step: FIRE_STEP,
             mass_floor: 1.0,
         };
-        let overlaps_gone = |s: &FlowStatus| s.max_overlap < n.overlap_tolerance;
         let remove = Stage {
             repulsion: Repulsion::Harmonic,
             ..relax
         };
-        (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, overlaps_gone)?;
+        (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, None, |s| {
+            s.max_overlap < n.overlap_tolerance
+        })?;
         let f = n.settling_force;
         let large = packing.radius.len() >= n.large_bed_from;
         let settle = Stage {
@@ -104,7 +131,7 @@ impl Packing {
             mass_floor: if large { n.settling_mass_floor } else { 1.0 },
             ..relax
         };
-        (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, |s| {
+        (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, None, |s| {
             let speed = match n.rest_measure {
                 RestMeasure::Max => s.max_force,
                 RestMeasure::Rms => s.rms_force,
@@ -112,8 +139,12 @@ impl Packing {
             s.steps > 10 && speed < n.rest_speed * f
         })?;
         packing.container.top = None;
-        (packing.steps[2], work[2]) = packing.flow(&law, &settling, relax, overlaps_gone)?;
-        Ok((packing, work))
+        let stages = Stages {
+            law,
+            settling,
+            relax,
+        };
+        Ok((packing, stages, work))
     }
 
     /// Solid volume over the volume of the die up to the highest sphere top.
@@ -147,12 +178,14 @@ impl Packing {
     }
 
     /// Moves the particles (FIRE, or overdamped Heun steps for the source's scheme) until
-    /// `done`; returns the step count and what the contact sums cost.
+    /// `done`, each tied to its `anchor` position if one is given (FIRE only); returns the
+    /// step count and what the contact sums cost.
     fn flow(
         &mut self,
         law: &ContactLaw,
         settling: &Settling,
         stage: Stage,
+        anchor: Option<&Anchor>,
         done: impl Fn(&FlowStatus) -> bool,
     ) -> Result<(usize, ContactWork), String> {
         let n = self.radius.len();
@@ -176,13 +209,18 @@ impl Packing {
             radius: &self.radius,
         };
         for step in 0..MAX_STEPS {
-            let [max_force, max_stiffness, max_overlap] = loads.evaluate(
+            let [mut max_force, contact_stiffness, max_overlap] = loads.evaluate(
                 &self.position,
                 &self.container,
                 &mut list,
                 &mut force,
                 &mut work,
             );
+            let mut max_stiffness = contact_stiffness;
+            if let Some(anchor) = anchor {
+                max_force = anchor.pull(&self.position, &mut force);
+                max_stiffness += anchor.stiffness;
+            }
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
@@ -193,6 +231,7 @@ impl Packing {
                 // serial sum: the same bits at any thread count
                 rms_force: (force.iter().map(|f| f.0.norm_squared()).sum::<f64>() / n as f64)
                     .sqrt(),
+                max_stiffness: contact_stiffness,
             };
             if done(&status) {
                 return Ok((step, work));
@@ -224,6 +263,13 @@ impl Packing {
             "packing: a stage did not finish within {MAX_STEPS} steps"
         ))
     }
+}
+
+/// The contact law, the settling scheme and the force-free stage that release a loaded bed.
+struct Stages {
+    law: ContactLaw,
+    settling: Settling,
+    relax: Stage,
 }
 
 /// How a packing stage pushes the particles down and moves them.
@@ -356,6 +402,15 @@ pub struct ContactWork {
 }
 
 impl ContactWork {
+    /// Adds the cost of a later part of the same stage (its last evaluation's contacts are
+    /// the stage's final ones).
+    fn merge(&mut self, later: Self) {
+        self.evaluations += later.evaluations;
+        self.list_entries += later.list_entries;
+        self.contacts += later.contacts;
+        self.final_contacts = later.final_contacts;
+    }
+
     fn add(&mut self, list_entries: usize, contacts: usize) {
         self.evaluations += 1;
         self.list_entries += list_entries as u64;
@@ -478,6 +533,8 @@ struct FlowStatus {
     max_force: f64,
     /// Root-mean-square net force.
     rms_force: f64,
+    /// Largest summed contact stiffness of a particle (without an anchor's).
+    max_stiffness: f64,
 }
 
 #[derive(Clone, Copy)]

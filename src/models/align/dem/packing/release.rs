@@ -1,0 +1,219 @@
+//! The overdamped release (spec align.md, stage 3: "then the device is switched off and
+//! overlaps relax"; docs/align.md, "The release").
+//!
+//! The model moves without inertia (Eq. A6: γ v = F), so a loaded bed freed of its settling
+//! force decompresses without overshoot and keeps its contact network. Straight FIRE does not:
+//! its inertia carries the springing-back bed past jamming, and whether a run keeps its network
+//! is chance (results/bench/README.md, "The released bed"). Following γ ẋ = F by explicit steps
+//! costs ~10⁵ steps at N = 1000 (the stiffest contact limits the step, the near-jammed bed's
+//! slow modes set the time). Backward-Euler steps of length h,
+//!
+//!   x' = argmin_x  U(x) + |x − x₀|² / (2h)        (γ = 1; U: the Hertz energy),
+//!
+//! are stable at any h, and the minimizer of each step is the same whichever solver finds it:
+//! so each step is solved by FIRE, whose inertia now only speeds up the solve. The anchor's
+//! stiffness 1/h bounds the condition number by 1 + h k_max. h = `release_step`/k_max, with
+//! k_max the largest summed contact stiffness at the step's start (the step grows as the
+//! overlaps, and with them the Hertz stiffness, shrink, as an explicit step would).
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::{ContactWork, FlowStatus, Load, Packing, Stages, MAX_STEPS};
+
+/// Each backward-Euler step is solved until the largest net force (contacts plus anchor) is
+/// below this fraction of its value at the step's start.
+const STEP_REDUCTION: f64 = 1e-2;
+
+/// Springs of stiffness `stiffness` that tie each particle to its position at the start of a
+/// backward-Euler step (the step's |x − x₀|²/(2h) term, h = 1/stiffness).
+pub(super) struct Anchor {
+    position: Vec<Vector3<f64>>,
+    pub(super) stiffness: f64,
+}
+
+impl Anchor {
+    /// Adds each spring's force −c (x − x₀) to the net forces; returns the largest net force
+    /// (a maximum: the same at any thread count).
+    pub(super) fn pull(&self, position: &[Vector3<f64>], force: &mut [Load]) -> f64 {
+        let c = self.stiffness;
+        force
+            .par_iter_mut()
+            .zip(position)
+            .zip(&self.position)
+            .map(|((f, x), x0)| {
+                f.0 -= c * (x - x0);
+                f.0.norm()
+            })
+            .reduce(|| 0.0, f64::max)
+    }
+}
+
+impl Packing {
+    /// Backward-Euler steps of γ ẋ = F (the `relax` stage's forces, no settling force) until
+    /// the largest overlap is below `tolerance`; `step` is h k_max. Returns the FIRE steps and
+    /// what the contact sums cost (the last evaluation at the released positions).
+    pub(super) fn release(
+        &mut self,
+        stages: &Stages,
+        step: f64,
+        tolerance: f64,
+    ) -> Result<(usize, ContactWork), String> {
+        let Stages {
+            law,
+            settling,
+            relax,
+        } = stages;
+        let relax = *relax;
+        let mut steps = 0;
+        let mut work = ContactWork::default();
+        loop {
+            // the forces at the step's start (one evaluation, no move)
+            let start = std::cell::Cell::new(None);
+            let (_, probe) = self.flow(law, settling, relax, None, |s: &FlowStatus| {
+                start.set(Some([s.max_overlap, s.max_stiffness, s.max_force]));
+                true
+            })?;
+            work.merge(probe);
+            let [overlap, max_stiffness, max_force] = start.get().expect("one evaluation");
+            if overlap < tolerance {
+                return Ok((steps, work));
+            }
+            if steps >= MAX_STEPS {
+                return Err(format!(
+                    "packing: the release did not finish within {MAX_STEPS} steps"
+                ));
+            }
+            let anchor = Anchor {
+                position: self.position.clone(),
+                stiffness: max_stiffness / step,
+            };
+            let target = STEP_REDUCTION * max_force;
+            let (taken, solve) = self.flow(law, settling, relax, Some(&anchor), |s| {
+                s.steps > 0 && s.max_force < target
+            })?;
+            steps += taken;
+            work.merge(solve);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::MaterialDb;
+    use crate::models::align::dem::contacts::{ContactLaw, Container};
+    use crate::models::align::dem::packing::{Repulsion, Settling, Stage};
+    use crate::models::align::{AlignParams, SettlingScheme};
+    use nalgebra::UnitQuaternion;
+
+    /// One sphere (R = 1) pressed into the floor by δ₀: a backward-Euler step of
+    /// δ̇ = −F(δ) with the Hertz force F = (4/3) E* √R δ^{3/2} lands on the root of
+    /// δ + h F(δ) = δ₀ (solved here by bisection), whatever the solver's path.
+    #[test]
+    fn one_release_step_is_the_backward_euler_step_of_the_overdamped_motion() {
+        let (e_star, overlap0) = (0.55, 0.05);
+        let hertz = |d: f64| 4.0 / 3.0 * e_star * d.powf(1.5);
+        let mut packing = Packing {
+            radius: vec![1.0],
+            position: vec![Vector3::new(2.0, 2.0, 1.0 - overlap0)],
+            orientation: vec![UnitQuaternion::identity()],
+            container: Container {
+                lx: 4.0,
+                ly: 4.0,
+                top: None,
+            },
+            steps: [0; 3],
+        };
+        let law = ContactLaw {
+            effective_modulus: e_star,
+            friction: 0.0,
+            wall_friction: 0.0,
+            skin: 0.0,
+        };
+        let settling = Settling::new(SettlingScheme::Fire, &[1.0]);
+        let relax = Stage {
+            repulsion: Repulsion::Hertz,
+            down_force: 0.0,
+            fire_step: 0.3,
+            mass_floor: 1.0,
+        };
+        let h = 40.0;
+        let anchor = Anchor {
+            position: packing.position.clone(),
+            stiffness: 1.0 / h,
+        };
+        packing
+            .flow(&law, &settling, relax, Some(&anchor), |s| {
+                s.max_force < 1e-12
+            })
+            .unwrap();
+        let (mut lo, mut hi) = (0.0, overlap0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if mid + h * hertz(mid) > overlap0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let overlap = 1.0 - packing.position[0].z;
+        assert!((overlap - lo).abs() < 1e-9, "{overlap} vs {lo}");
+        // the step is implicit: it stops short of the explicit step's overshoot
+        assert!(overlap > 0.0 && overlap < overlap0);
+    }
+
+    /// The same loaded bed released by backward-Euler steps (FIRE inside each) and by the
+    /// explicit overdamped motion (Heun steps of 0.8/k_max, the source's scheme): two
+    /// independent integrations of γ ẋ = F. The released positions converge to the explicit
+    /// ones at first order in the step (backward Euler's order: the distance falls ~10× per
+    /// 10× shorter step), and at the default step the bed keeps the explicit release's contact
+    /// network, which the inertial release largely loses.
+    #[test]
+    fn the_overdamped_release_converges_to_explicit_overdamped_steps() {
+        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
+        let mut params = AlignParams::paper_defaults(material, 0.0);
+        params.particles = 200;
+        let params = params.packing();
+        let n = &params.numerics;
+        let (loaded, stages, _) = Packing::loaded(&params, 3).unwrap();
+        let done = |s: &FlowStatus| s.max_overlap < n.overlap_tolerance;
+        let released = |settling: &Settling| {
+            let mut bed = loaded.clone();
+            let (_, work) = bed
+                .flow(&stages.law, settling, stages.relax, None, done)
+                .unwrap();
+            (bed, work)
+        };
+        let (explicit, explicit_work) = released(&Settling::new(
+            SettlingScheme::SourceDropped,
+            &loaded.radius,
+        ));
+        let (_, inertial_work) = released(&stages.settling);
+        let apart = |step: f64| {
+            let mut bed = loaded.clone();
+            let (_, work) = bed.release(&stages, step, n.overlap_tolerance).unwrap();
+            let sum: f64 = (bed.position.iter().zip(&explicit.position))
+                .map(|(p, q)| (p - q).norm_squared())
+                .sum();
+            ((sum / bed.position.len() as f64).sqrt(), work)
+        };
+        let (near, _) = apart(10.0);
+        let (mid, _) = apart(100.0);
+        let (far, default_work) = apart(n.release_step);
+        assert!(n.release_step == 1e3);
+        assert!(near < 0.2 * mid && mid < 0.2 * far, "{near} {mid} {far}");
+        let contacts = |w: ContactWork| w.final_contacts as f64;
+        let reference = contacts(explicit_work);
+        let kept = contacts(default_work);
+        assert!(
+            (kept - reference).abs() < 0.02 * reference,
+            "{kept} vs {reference}"
+        );
+        let inertial = contacts(inertial_work);
+        assert!(
+            inertial < 0.8 * reference,
+            "inertial {inertial} vs {reference}"
+        );
+    }
+}
