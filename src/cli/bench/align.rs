@@ -31,8 +31,9 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
     let threads = counts("threads", Some(&args.threads), &[])?;
     let material = db.get("srfe12o19")?.clone();
     println!(
-        "align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, rest criterion {:?}",
-        args.rest
+        "align: Sr ferrite, 40 kOe, μ = 0.2, P = 0.5 atm, target A = 0.95, rest criterion {:?}, \
+         release {:?}",
+        args.rest, args.release
     );
     if args.tiles > 1 {
         println!(
@@ -68,6 +69,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let tiles = args.tiles as usize;
             params.particles = n.div_ceil(tiles * tiles);
             params.numerics.rest_measure = args.rest;
+            params.numerics.release_scheme = args.release;
             reset_peak_rss();
             let (started, cpu_start) = (Instant::now(), cpu_seconds());
             let (packing, work) = pool
@@ -105,6 +107,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
                 "tiles": tiles,
                 "settled_particles": die,
                 "rest_measure": args.rest,
+                "release_scheme": args.release,
                 "settle_s": settle_s,
                 "settle_steps": packing.steps,
                 "settle_particle_steps_per_s": settle_rate,

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 
 use super::count;
 use crate::materials::MaterialDb;
-use crate::models::align::RestMeasure;
+use crate::models::align::{ReleaseScheme, RestMeasure};
 use crate::output::atomic;
 use crate::{Error, Result};
 
@@ -69,6 +69,10 @@ pub struct BenchArgs {
     /// or max (largest net force; its cost explodes with N).
     #[arg(long, value_enum, default_value = "rms")]
     rest: RestMeasure,
+    /// align: how the settled bed is released: inertial (the model's default) or overdamped
+    /// (docs/align.md, "The release").
+    #[arg(long, value_enum, default_value = "inertial")]
+    release: ReleaseScheme,
     /// analyze: point counts, comma-separated.
     #[arg(long, default_value = "10000,100000", value_delimiter = ',')]
     points: Vec<String>,
