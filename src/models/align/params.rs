@@ -128,10 +128,10 @@ pub struct Numerics {
     pub release_scheme: ReleaseScheme,
     /// The overdamped release's backward-Euler step in units of 1/k_max (k_max: the largest
     /// summed contact stiffness of a particle at the step's start; γ = 1). A numerical device
-    /// of the path: at N = 1000 (8 paired seeds) 10³ and 10⁴ give τ_0.95 within
-    /// 0.1 ± 0.3 s of the plain overdamped relaxation (Heun steps of 0.8/k_max), 10⁵ 0.26 ±
-    /// 0.13 s above it, and 10⁶ falls back to the inertial kind of bed (results/bench/README.md,
-    /// "An overdamped release"). 10³.
+    /// of the path: at N = 1000 (8 paired seeds) 10³ gives τ_0.95 within 0.23 ± 0.31 s of the
+    /// plain overdamped relaxation (Heun steps of 0.8/k_max); with FIRE solving each step,
+    /// 10⁴ gave 0.08 ± 0.27 s, 10⁵ 0.26 ± 0.13 s above it, and 10⁶ fell back to the inertial
+    /// kind of bed (results/bench/README.md, "An overdamped release"). 10³.
     pub release_step: f64,
     /// Overlap removal (stage 2) and relaxation after settling end when the largest overlap is
     /// below this fraction of R_av. 1e-5.

@@ -38,7 +38,6 @@ use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
 mod release;
-use release::Anchor;
 
 /// Largest displacement of any particle in one packing step, R_av.
 const MAX_MOVE: f64 = 0.05;
@@ -86,7 +85,7 @@ impl Packing {
                 packing.release(&stages, n.release_step, n.overlap_tolerance)?
             }
             // the source's Heun steps are the overdamped motion itself
-            _ => packing.flow(&stages.law, &stages.settling, stages.relax, None, |s| {
+            _ => packing.flow(&stages.law, &stages.settling, stages.relax, |s| {
                 s.max_overlap < n.overlap_tolerance
             })?,
         };
@@ -120,7 +119,7 @@ impl Packing {
             repulsion: Repulsion::Harmonic,
             ..relax
         };
-        (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, None, |s| {
+        (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, |s| {
             s.max_overlap < n.overlap_tolerance
         })?;
         let f = n.settling_force;
@@ -131,7 +130,7 @@ impl Packing {
             mass_floor: if large { n.settling_mass_floor } else { 1.0 },
             ..relax
         };
-        (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, None, |s| {
+        (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, |s| {
             let speed = match n.rest_measure {
                 RestMeasure::Max => s.max_force,
                 RestMeasure::Rms => s.rms_force,
@@ -178,14 +177,12 @@ impl Packing {
     }
 
     /// Moves the particles (FIRE, or overdamped Heun steps for the source's scheme) until
-    /// `done`, each tied to its `anchor` position if one is given (FIRE only); returns the
-    /// step count and what the contact sums cost.
+    /// `done`; returns the step count and what the contact sums cost.
     fn flow(
         &mut self,
         law: &ContactLaw,
         settling: &Settling,
         stage: Stage,
-        anchor: Option<&Anchor>,
         done: impl Fn(&FlowStatus) -> bool,
     ) -> Result<(usize, ContactWork), String> {
         let n = self.radius.len();
@@ -209,18 +206,13 @@ impl Packing {
             radius: &self.radius,
         };
         for step in 0..MAX_STEPS {
-            let [mut max_force, contact_stiffness, max_overlap] = loads.evaluate(
+            let [max_force, max_stiffness, max_overlap] = loads.evaluate(
                 &self.position,
                 &self.container,
                 &mut list,
                 &mut force,
                 &mut work,
             );
-            let mut max_stiffness = contact_stiffness;
-            if let Some(anchor) = anchor {
-                max_force = anchor.pull(&self.position, &mut force);
-                max_stiffness += anchor.stiffness;
-            }
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
@@ -231,7 +223,6 @@ impl Packing {
                 // serial sum: the same bits at any thread count
                 rms_force: (force.iter().map(|f| f.0.norm_squared()).sum::<f64>() / n as f64)
                     .sqrt(),
-                max_stiffness: contact_stiffness,
             };
             if done(&status) {
                 return Ok((step, work));
@@ -402,15 +393,6 @@ pub struct ContactWork {
 }
 
 impl ContactWork {
-    /// Adds the cost of a later part of the same stage (its last evaluation's contacts are
-    /// the stage's final ones).
-    fn merge(&mut self, later: Self) {
-        self.evaluations += later.evaluations;
-        self.list_entries += later.list_entries;
-        self.contacts += later.contacts;
-        self.final_contacts = later.final_contacts;
-    }
-
     fn add(&mut self, list_entries: usize, contacts: usize) {
         self.evaluations += 1;
         self.list_entries += list_entries as u64;
@@ -533,8 +515,6 @@ struct FlowStatus {
     max_force: f64,
     /// Root-mean-square net force.
     rms_force: f64,
-    /// Largest summed contact stiffness of a particle (without an anchor's).
-    max_stiffness: f64,
 }
 
 #[derive(Clone, Copy)]
