@@ -7,7 +7,7 @@ use magopt::models::align::dem::contacts::{ContactLaw, ContactSet, Container, WA
 use magopt::models::align::dem::{self, Packing};
 use magopt::models::align::ensemble::MasterCurve;
 use magopt::models::align::study::AlignModel;
-use magopt::models::align::{run_ensemble, AlignParams, ModelKind, Numerics};
+use magopt::models::align::{run_ensemble, AlignParams, ModelKind, Numerics, ReleaseScheme};
 use magopt::neighbor::NeighborList;
 use magopt::optimize::{minimize_1d, pointwise, Settings};
 use magopt::units::si_per_unit;
@@ -221,9 +221,16 @@ fn alignment_converges_in_time_step_and_friction_regularization() {
 
 #[test]
 fn results_are_bit_identical_at_one_and_two_threads() {
+    for release in [ReleaseScheme::Inertial, ReleaseScheme::Overdamped] {
+        bit_identical_at_one_and_two_threads(release);
+    }
+}
+
+fn bit_identical_at_one_and_two_threads(release: ReleaseScheme) {
     let mut params = sr_ferrite(40.0);
     params.particles = 80;
     params.numerics.parallel_from = 0; // exercise the parallel sweep inside each run
+    params.numerics.release_scheme = release;
     let setup = magopt::models::align::study::AlignSetup {
         params,
         model: ModelKind::Dem,
