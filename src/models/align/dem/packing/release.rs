@@ -90,7 +90,8 @@ impl Packing {
             let force = &mut solver.force;
             let [max_force, max_stiffness, max_overlap] =
                 loads.evaluate(position, container, &mut solver.list, force, &mut work);
-            if max_overlap < tolerance {
+            // (a bed whose forces all balance exactly is at rest: γ ẋ = F no longer moves it)
+            if max_overlap < tolerance || max_force == 0.0 {
                 return Ok((work.evaluations as usize, work));
             }
             if work.evaluations as usize >= MAX_STEPS {
