@@ -6,6 +6,10 @@
 #                                            # (§3, Figs. 6–7): 1512 runs, about 1.5 h on 2 cores
 #   bash studies/reproduce-align.sh --quick  # CI size: N = 150, one replicate, coarser grids
 #                                            # (236 runs, about 2 min on 2 cores)
+#   RELEASE=overdamped bash studies/reproduce-align.sh --quick
+#                                            # every DEM run with --release-scheme overdamped
+#                                            # (docs/align.md, "The release"), into
+#                                            # align-runs-quick-overdamped/, align-quick-overdamped.md
 # Runs land in results/reproduction/align-runs[-quick]/<case>-s<seed>.json (the `magopt align
 # --json` record of each run); the report goes to results/reproduction/align[-quick].md. Cases
 # already recorded are kept (delete the directory to start over), so an interrupted run resumes.
@@ -25,10 +29,12 @@ else
   limit_time=20000s
 fi
 pressures="0 0.5 1 5 10"
+release=${RELEASE:-}
+[ -z "$release" ] || suffix=$suffix-$release
 out=results/reproduction/align-runs$suffix
 mkdir -p "$out"
-printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\ncpu="%s"\n' "$fields" \
-  "$frictions" "$pressures" "$seeds" "$limit_time" \
+printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\nrelease="%s"\ncpu="%s"\n' \
+  "$fields" "$frictions" "$pressures" "$seeds" "$limit_time" "$release" \
   "$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)" > "$out/grid.env"
 jobs=${JOBS:-$(nproc)}
 queue=$(mktemp); trap 'rm -f "$queue"' EXIT
@@ -44,12 +50,13 @@ run() {
 one() {
   local name=$1 s=$2 rc=0; shift 2
   RAYON_NUM_THREADS=1 nice -n 10 "$bin" align --json --particles "$n" --seed "$s" \
-    --max-time "$limit_time" "$@" > "$out/$name-s$s.json.part" || rc=$?
+    --max-time "$limit_time" ${release:+--release-scheme "$release"} "$@" \
+    > "$out/$name-s$s.json.part" || rc=$?
   if [ "$rc" -le 3 ] && [ -s "$out/$name-s$s.json.part" ]; then
     mv "$out/$name-s$s.json.part" "$out/$name-s$s.json"
   else echo "$name seed $s: exit $rc (kept as .part)" >&2; fi
 }
-export -f one; export bin n out limit_time
+export -f one; export bin n out limit_time release
 # study NAME: run the queued runs, JOBS at a time, and record the study's wall-clock time
 study() {
   local k t0; k=$(wc -l < "$queue"); [ "$k" -gt 0 ] || return 0
