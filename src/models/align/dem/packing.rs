@@ -11,9 +11,9 @@
 //!   `rest_measure = rms`, the root-mean-square) net force is below `rest_speed` × the settling
 //!   force (an overdamped particle would move slower than that fraction of its free-fall
 //!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
-//!   the largest is below `overlap_tolerance`: by default without inertia, as the model moves
-//!   (`release_scheme = overdamped`, backward-Euler steps each solved by FIRE: `release`), or
-//!   by FIRE straight from the loaded bed (`inertial`, the protocol before 2026-12-03).
+//!   the largest is below `overlap_tolerance`: by default by FIRE straight from the loaded bed
+//!   (`release_scheme = inertial`), or without inertia, as the model moves (`overdamped`:
+//!   backward-Euler steps, each solved by conjugate gradients; `release`).
 //!
 //! FIRE's time step is capped at 0.3/√k_max in every stage, with unit masses, except settling
 //! from `large_bed_from` particles on, which uses `settling_step` and masses proportional to
@@ -485,26 +485,24 @@ impl Fire {
     }
 }
 
-/// Σ v·F, Σ |v|², Σ |F|², summed in fixed chunks (in parallel) and then in chunk order, so the
-/// result does not depend on the number of threads.
+/// Σ v·F, Σ |v|², Σ |F|² (the same at any thread count: `ordered_sums`).
 fn fire_sums(velocity: &[Vector3<f64>], force: &[Load]) -> [f64; 3] {
-    const CHUNK: usize = 2048;
-    let partial: Vec<[f64; 3]> = velocity
-        .par_chunks(CHUNK)
-        .zip(force.par_chunks(CHUNK))
-        .map(|(vs, fs)| {
-            vs.iter().zip(fs).fold([0.0; 3], |acc, (v, f)| {
-                [
-                    acc[0] + v.dot(&f.0),
-                    acc[1] + v.norm_squared(),
-                    acc[2] + f.0.norm_squared(),
-                ]
-            })
-        })
-        .collect();
-    partial.iter().fold([0.0; 3], |acc, p| {
-        [acc[0] + p[0], acc[1] + p[1], acc[2] + p[2]]
+    ordered_sums(velocity.len(), |i| {
+        let (v, f) = (velocity[i], force[i].0);
+        [v.dot(&f), v.norm_squared(), f.norm_squared()]
     })
+}
+
+/// K sums Σ terms(i) over 0..n at once, summed in fixed chunks (in parallel) and then in chunk
+/// order, so the result does not depend on the number of threads.
+fn ordered_sums<const K: usize>(n: usize, terms: impl Fn(usize) -> [f64; K] + Sync) -> [f64; K] {
+    const CHUNK: usize = 2048;
+    let add = |a: [f64; K], b: [f64; K]| std::array::from_fn(|k| a[k] + b[k]);
+    let partial: Vec<[f64; K]> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).fold([0.0; K], |acc, i| add(acc, terms(i))))
+        .collect();
+    partial.into_iter().fold([0.0; K], add)
 }
 
 /// What a flow stage's stop rule sees.

@@ -11,7 +11,7 @@
 //!   x' = argmin_x  U(x) + |x − x₀|² / (2h)        (γ = 1; U: the Hertz energy),
 //!
 //! are stable at any h, and the minimizer of each step is the same whichever solver finds it:
-//! each is found by nonlinear conjugate gradients (2.3–2.4× fewer force evaluations than FIRE
+//! each is found by nonlinear conjugate gradients (2.2–2.4× fewer force evaluations than FIRE
 //! at N = 10³ and 10⁴: results/bench/README.md, "An overdamped release"). The anchor's
 //! stiffness 1/h bounds the condition number by 1 + h k_max. h = `release_step`/k_max, with
 //! k_max the largest summed contact stiffness at the step's start (the step grows as the
@@ -20,7 +20,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::{ContactWork, Load, Loads, Packing, Stages, MAX_MOVE, MAX_STEPS, SKIN};
+use super::{ordered_sums, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE, MAX_STEPS, SKIN};
 use crate::models::align::dem::contacts::Container;
 use crate::neighbor::NeighborList;
 
@@ -102,6 +102,7 @@ impl Packing {
             anchor.position.copy_from_slice(position);
             anchor.stiffness = max_stiffness / step;
             let target = STEP_REDUCTION * max_force;
+            // the forces just evaluated are the step's start: the anchor pulls with zero there
             solver.minimize(position, &loads, container, &anchor, target, &mut work)?;
         }
     }
@@ -135,7 +136,7 @@ impl ConjugateGradients {
     }
 
     /// Moves `position` to the minimizer of U + anchor until the largest net force is below
-    /// `target`.
+    /// `target`, starting from `self.force`, the forces at `position` (= the anchor's).
     fn minimize(
         &mut self,
         position: &mut [Vector3<f64>],
@@ -150,7 +151,7 @@ impl ConjugateGradients {
             loads.evaluate(at, container, list, force, work);
             anchor.pull(at, force)
         };
-        let mut max_force = net_force(position, &mut self.force, &mut self.list);
+        let mut max_force = f64::INFINITY;
         let along_force = |d: &mut [Vector3<f64>], f: &[Load]| {
             (d.par_iter_mut().zip(f)).for_each(|(d, f)| *d = f.0);
         };
@@ -172,8 +173,9 @@ impl ConjugateGradients {
             .for_each(|((t, x), d)| *t = x + eps * d);
             net_force(&self.trial, &mut self.probe, &mut self.list);
             let (f, p, d) = (&self.force, &self.probe, &self.direction);
-            let slope = ordered_sum(n, |i| f[i].0.dot(&d[i]));
-            let curvature = ordered_sum(n, |i| (f[i].0 - p[i].0).dot(&d[i])) / eps;
+            let [slope, change] =
+                ordered_sums(n, |i| [f[i].0.dot(&d[i]), (f[i].0 - p[i].0).dot(&d[i])]);
+            let curvature = change / eps;
             // a Newton step along d, never moving a particle further than MAX_MOVE
             let newton = if curvature > 0.0 {
                 slope / curvature
@@ -185,26 +187,18 @@ impl ConjugateGradients {
             (self.previous.par_iter_mut().zip(f)).for_each(|(o, f)| *o = f.0);
             max_force = net_force(position, &mut self.force, &mut self.list);
             let (f, old) = (&self.force, &self.previous);
-            let gain = ordered_sum(n, |i| f[i].0.dot(&(f[i].0 - old[i])));
-            let beta = (gain / ordered_sum(n, |i| old[i].norm_squared())).max(0.0);
+            let [gain, old_squared] = ordered_sums(n, |i| {
+                [f[i].0.dot(&(f[i].0 - old[i])), old[i].norm_squared()]
+            });
+            let beta = (gain / old_squared).max(0.0);
             (self.direction.par_iter_mut().zip(f)).for_each(|(d, f)| *d = f.0 + beta * *d);
             let d = &self.direction;
-            if ordered_sum(n, |i| f[i].0.dot(&d[i])) <= 0.0 {
+            if ordered_sums(n, |i| [f[i].0.dot(&d[i])])[0] <= 0.0 {
                 along_force(&mut self.direction, f);
             }
         }
         Err("packing: a release step did not converge".into())
     }
-}
-
-/// Σ f(i) over 0..n in fixed chunks, then in chunk order: the same at any thread count.
-fn ordered_sum(n: usize, f: impl Fn(usize) -> f64 + Sync) -> f64 {
-    const CHUNK: usize = 2048;
-    let partial: Vec<f64> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).sum())
-        .collect();
-    partial.iter().sum()
 }
 
 #[cfg(test)]
@@ -254,7 +248,16 @@ mod tests {
             stiffness: 1.0 / h,
         };
         let mut work = ContactWork::default();
-        ConjugateGradients::new(1)
+        let mut solver = ConjugateGradients::new(1);
+        let (list, force) = (&mut solver.list, &mut solver.force);
+        loads.evaluate(
+            &packing.position,
+            &packing.container,
+            list,
+            force,
+            &mut work,
+        );
+        solver
             .minimize(
                 &mut packing.position,
                 &loads,
@@ -342,7 +345,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| ordered_sum(10_000, term))
+            pool.install(|| ordered_sums(10_000, |i| [term(i)])[0])
         };
         let one = sum_on(1);
         assert_eq!(one.to_bits(), sum_on(2).to_bits());
