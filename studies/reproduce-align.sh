@@ -6,13 +6,16 @@
 #                                            # (§3, Figs. 6–7): 1512 runs, about 1.5 h on 2 cores
 #   bash studies/reproduce-align.sh --quick  # CI size: N = 150, one replicate, coarser grids
 #                                            # (236 runs, about 2 min on 2 cores)
-#   RELEASE=overdamped bash studies/reproduce-align.sh --quick
-#                                            # every DEM run with --release-scheme overdamped
-#                                            # (docs/align.md, "The release"), into
-#                                            # align-runs-quick-overdamped/, align-quick-overdamped.md
+#   RELEASE=inertial bash studies/reproduce-align.sh --quick
+#                                            # every DEM run with --release-scheme inertial (the
+#                                            # default until 2026-12-03; docs/align.md, "The
+#                                            # release"), into align-runs-quick-inertial/,
+#                                            # align-quick-inertial.md
 # Runs land in results/reproduction/align-runs[-quick]/<case>-s<seed>.json (the `magopt align
 # --json` record of each run); the report goes to results/reproduction/align[-quick].md. Cases
 # already recorded are kept (delete the directory to start over), so an interrupted run resumes.
+# Each settled packing is kept in <runs>/packings/ (not committed) and reused by every case of its
+# seed and settling and release schemes (`magopt align --packing-cache`: the same bits).
 # CASES=REGEX runs only the cases whose name matches (a partial run: the report shows the
 # others as –), e.g. CASES='^(default|source)-mu.*-h40$' for Fig. 6b at full size.
 # JOBS=K runs K cases at a time, one thread each (default: the number of cores); each study's
@@ -29,8 +32,8 @@ else
   limit_time=20000s
 fi
 pressures="0 0.5 1 5 10"
-release=${RELEASE:-}
-[ -z "$release" ] || suffix=$suffix-$release
+release=${RELEASE:-overdamped}
+[ "$release" = overdamped ] || suffix=$suffix-$release
 out=results/reproduction/align-runs$suffix
 mkdir -p "$out"
 printf 'fields="%s"\nfrictions="%s"\npressures="%s"\nseeds="%s"\nlimit_time=%s\nrelease="%s"\ncpu="%s"\n' \
@@ -50,7 +53,8 @@ run() {
 one() {
   local name=$1 s=$2 rc=0; shift 2
   RAYON_NUM_THREADS=1 nice -n 10 "$bin" align --json --particles "$n" --seed "$s" \
-    --max-time "$limit_time" ${release:+--release-scheme "$release"} "$@" \
+    --max-time "$limit_time" --release-scheme "$release" \
+    --packing-cache "$out/packings" "$@" \
     > "$out/$name-s$s.json.part" || rc=$?
   if [ "$rc" -le 3 ] && [ -s "$out/$name-s$s.json.part" ]; then
     mv "$out/$name-s$s.json.part" "$out/$name-s$s.json"

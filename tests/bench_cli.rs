@@ -94,6 +94,10 @@ fn align_settling_contacts_are_counted_once_per_pair() {
             "2",
             "--threads",
             "1",
+            // FIRE in all three stages (the overdamped release reports its force evaluations
+            // as its steps)
+            "--release",
+            "inertial",
         ],
     );
     let row = &rows[0];

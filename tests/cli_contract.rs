@@ -213,3 +213,38 @@ fn a_reader_that_goes_away_ends_the_run_quietly() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// `align --packing-cache DIR`: the first run settles its packing and stores it, a second run
+/// (another field: the packing does not depend on it) loads it, and both give the results of
+/// runs without the cache, bit for bit; a damaged file is settled again and replaced.
+#[test]
+fn a_cached_packing_gives_the_same_run_as_a_settled_one() {
+    let dir = temp_dir("packing-cache");
+    let cache = dir.to_str().unwrap();
+    let run = |field: &str, cached: bool| {
+        let mut args = vec!["align", "--particles", "60", "--field", field, "--json"];
+        if cached {
+            args.extend(["--packing-cache", cache]);
+        }
+        let (code, stdout, stderr) = magopt(&args);
+        assert_eq!(code, 0, "{stderr}");
+        let mut v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        v.as_object_mut().unwrap().remove("wall_time_s");
+        v
+    };
+    let files = || std::fs::read_dir(&dir).unwrap().count();
+    assert_eq!(run("40", true), run("40", false));
+    assert_eq!(files(), 1);
+    assert_eq!(run("20", true), run("20", false));
+    assert_eq!(files(), 1, "the second field reused the packing");
+    let file = std::fs::read_dir(&dir)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    std::fs::write(&file, b"magopt packing 1\ntruncated").unwrap();
+    assert_eq!(run("40", true), run("40", false));
+    assert!(std::fs::metadata(&file).unwrap().len() > 1000, "replaced");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

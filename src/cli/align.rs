@@ -24,6 +24,11 @@ use crate::{Error, Result};
 pub struct AlignArgs {
     #[command(flatten)]
     run: RunArgs,
+    /// Keep settled packings in DIR (created if missing) and reuse them: a run whose packing
+    /// (code fingerprint, seed, packing parameters) is stored there loads it instead of
+    /// settling again, with the same bits (studies/reproduce-align.sh runs every case this way)
+    #[arg(long, value_name = "DIR")]
+    packing_cache: Option<PathBuf>,
 }
 
 /// `magopt optimize-field` options besides the model parameters (all but `--field`).
@@ -64,7 +69,11 @@ pub struct OptimizeArgs {
 
 /// One run.
 pub fn run_align(db: &MaterialDb, matches: &ArgMatches, args: &AlignArgs) -> Result<i32> {
-    let model = AlignModel::new(db.clone());
+    let mut model = AlignModel::new(db.clone());
+    if let Some(dir) = &args.packing_cache {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        model = model.with_packing_dir(dir.clone());
+    }
     single(&model, matches, &[], &args.run, summary)
 }
 

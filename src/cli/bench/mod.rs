@@ -69,9 +69,9 @@ pub struct BenchArgs {
     /// or max (largest net force; its cost explodes with N).
     #[arg(long, value_enum, default_value = "rms")]
     rest: RestMeasure,
-    /// align: how the settled bed is released: inertial (the model's default) or overdamped
-    /// (docs/align.md, "The release").
-    #[arg(long, value_enum, default_value = "inertial")]
+    /// align: how the settled bed is released: overdamped (the model's default) or inertial
+    /// (the default until 2026-12-03; docs/align.md, "The release").
+    #[arg(long, value_enum, default_value = "overdamped")]
     release: ReleaseScheme,
     /// analyze: point counts, comma-separated.
     #[arg(long, default_value = "10000,100000", value_delimiter = ',')]

@@ -64,10 +64,10 @@ pub enum SettlingScheme {
 #[serde(rename_all = "kebab-case")]
 pub enum ReleaseScheme {
     /// The overlaps relax by the model's own inertia-free motion γ ẋ = F (Eq. A6 without the
-    /// settling force): backward-Euler steps of `release_step`/k_max, each solved by FIRE
-    /// (docs/align.md, "The release").
+    /// settling force): backward-Euler steps of `release_step`/k_max, each solved by conjugate
+    /// gradients (docs/align.md, "The release"). The default.
     Overdamped,
-    /// FIRE minimization straight from the loaded bed (the protocol before 2026-12-03): its
+    /// FIRE minimization straight from the loaded bed (the default until 2026-12-03): its
     /// inertia carries the springing-back bed past jamming, and how many contacts survive is
     /// chance (results/bench/README.md, "The released bed").
     Inertial,
@@ -121,10 +121,11 @@ pub struct Numerics {
     /// rms at 3e-3 (test `settled_packing_fraction_converges_in_the_rest_criterion`). rms.
     pub rest_measure: RestMeasure,
     /// How the loaded bed is released after settling (FIRE settling only; the source's
-    /// scheme relaxes by its own overdamped Heun steps). Inertial, for now: every shipped
-    /// result was made with it; `overdamped` is the physically faithful one (τ_0.95 about
-    /// 15 % longer at N = 1000) but its cost grows steeply with N (results/bench/README.md,
-    /// "An overdamped release").
+    /// scheme relaxes by its own overdamped Heun steps). Overdamped, as the model moves (Eq.
+    /// A6): every seed keeps its contact network, where the inertial release (FIRE, the
+    /// default until 2026-12-03) keeps it or loses it by chance (τ_0.95 about 13 % shorter on
+    /// average at N = 1000). Its cost grows about as the bed height to the 1.8th power
+    /// (results/bench/README.md, "An overdamped release").
     pub release_scheme: ReleaseScheme,
     /// The overdamped release's backward-Euler step in units of 1/k_max (k_max: the largest
     /// summed contact stiffness of a particle at the step's start; γ = 1). A numerical device
@@ -181,7 +182,7 @@ impl Default for Numerics {
             settling_force: 1e-3,
             rest_speed: 1e-2,
             rest_measure: RestMeasure::Rms,
-            release_scheme: ReleaseScheme::Inertial,
+            release_scheme: ReleaseScheme::Overdamped,
             release_step: 1e3,
             overlap_tolerance: 1e-5,
             cell_order_from: 10_000,

@@ -1,10 +1,13 @@
 //! `align` as a study model: named parameters with units, metrics and the A(t) series. Settled
 //! packings are cached per (packing parameters, seed), so every field, friction and pressure of
-//! a sweep or an optimization reuses the replicate's packing (common random numbers).
+//! a sweep or an optimization reuses the replicate's packing (common random numbers), and, with
+//! a packing directory (`magopt align --packing-cache`), also kept on disk between processes.
 
 use std::collections::HashMap;
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
 
+use super::dem::packing::store;
 use super::dem::{self, Packing};
 use super::{
     run_ensemble, AlignOutcome, AlignParams, FrictionScheme, ModelKind, MomentBranch, PressureMode,
@@ -40,6 +43,8 @@ pub type SharedPacking = Arc<OnceLock<std::result::Result<Packing, String>>>;
 pub struct AlignModel {
     materials: MaterialDb,
     packings: Mutex<HashMap<String, SharedPacking>>,
+    /// Where settled packings are also kept between processes, if anywhere.
+    packing_dir: Option<PathBuf>,
 }
 
 type AlignParam = Param<AlignModel, AlignSetup>;
@@ -150,7 +155,7 @@ static PARAMETERS: &[AlignParam] = &[
         "release_scheme",
         "How the settled bed is released when the settling force is switched off: overdamped \
          (the overlaps relax by the inertia-free motion γ ẋ = F, backward-Euler steps) or \
-         inertial (FIRE straight from the loaded bed: the protocol before 2026-12-03)",
+         inertial (FIRE straight from the loaded bed: the default until 2026-12-03)",
         params.numerics.release_scheme,
         [
             ("overdamped", ReleaseScheme::Overdamped),
@@ -304,6 +309,17 @@ impl AlignModel {
         Self {
             materials,
             packings: Mutex::new(HashMap::new()),
+            packing_dir: None,
+        }
+    }
+
+    /// The model keeping its settled packings in `dir` too (which must exist): a packing
+    /// stored there under the same code fingerprint, seed and packing parameters is loaded
+    /// instead of settled again (the same bits), and a settled one is stored.
+    pub fn with_packing_dir(self, dir: PathBuf) -> Self {
+        Self {
+            packing_dir: Some(dir),
+            ..self
         }
     }
 
@@ -323,7 +339,10 @@ impl AlignModel {
             .entry(key)
             .or_default()
             .clone();
-        cell.get_or_init(|| Packing::generate(&packing_params, seed));
+        cell.get_or_init(|| match &self.packing_dir {
+            None => Packing::generate(&packing_params, seed),
+            Some(dir) => stored(dir, &packing_params, seed),
+        });
         cell
     }
 
@@ -352,6 +371,26 @@ impl AlignModel {
             },
         }
     }
+}
+
+/// The packing of `seed` from `dir`, or settled and stored there (a failed store costs only
+/// the time to settle it again: the run goes on, with a warning).
+fn stored(
+    dir: &std::path::Path,
+    params: &super::params::PackingParams,
+    seed: u64,
+) -> std::result::Result<Packing, String> {
+    let code = crate::study::fingerprint::code(<AlignModel as StudyModel>::SOURCES);
+    let key = format!("{code}|{seed}|{params:?}");
+    let path = store::path_in(dir, &key);
+    if let Some(packing) = store::load(&path, &key, params.particles) {
+        return Ok(packing);
+    }
+    let packing = Packing::generate(params, seed)?;
+    if let Err(e) = store::save(&path, &key, &packing) {
+        eprintln!("warning: packing cache: {e} (the packing was settled and is used)");
+    }
+    Ok(packing)
 }
 
 impl StudyModel for AlignModel {

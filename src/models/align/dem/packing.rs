@@ -11,9 +11,10 @@
 //!   `rest_measure = rms`, the root-mean-square) net force is below `rest_speed` × the settling
 //!   force (an overdamped particle would move slower than that fraction of its free-fall
 //!   speed); then the force is switched off and the overlaps relax under Hertz repulsion until
-//!   the largest is below `overlap_tolerance`: by default by FIRE straight from the loaded bed
-//!   (`release_scheme = inertial`), or without inertia, as the model moves (`overdamped`:
-//!   backward-Euler steps, each solved by conjugate gradients; `release`).
+//!   the largest is below `overlap_tolerance`: by default without inertia, as the model moves
+//!   (`release_scheme = overdamped`: backward-Euler steps, each solved by conjugate gradients;
+//!   `release`), or by FIRE straight from the loaded bed (`inertial`, the default until
+//!   2026-12-03).
 //!
 //! FIRE's time step is capped at 0.3/√k_max in every stage, with unit masses, except settling
 //! from `large_bed_from` particles on, which uses `settling_step` and masses proportional to
@@ -38,6 +39,7 @@ use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
 mod release;
+pub mod store;
 
 /// Largest displacement of any particle in one packing step, R_av.
 const MAX_MOVE: f64 = 0.05;
@@ -61,7 +63,8 @@ pub struct Packing {
     pub orientation: Vec<UnitQuaternion<f64>>,
     /// The die (open top).
     pub container: Container,
-    /// Steps taken by overlap removal and settling (diagnostics).
+    /// Steps taken by overlap removal, settling and the release (diagnostics; the overdamped
+    /// release counts its force evaluations).
     pub steps: [usize; 3],
 }
 
