@@ -336,12 +336,12 @@ impl AlignModel {
             .packings
             .lock()
             .expect("packing cache")
-            .entry(key)
+            .entry(key.clone())
             .or_default()
             .clone();
         cell.get_or_init(|| match &self.packing_dir {
             None => Packing::generate(&packing_params, seed),
-            Some(dir) => stored(dir, &packing_params, seed),
+            Some(dir) => stored(dir, &key, &packing_params, seed),
         });
         cell
     }
@@ -377,11 +377,13 @@ impl AlignModel {
 /// the time to settle it again: the run goes on, with a warning).
 fn stored(
     dir: &std::path::Path,
+    key: &str,
     params: &super::params::PackingParams,
     seed: u64,
 ) -> std::result::Result<Packing, String> {
+    // the in-memory key under the code that settled it
     let code = crate::study::fingerprint::code(<AlignModel as StudyModel>::SOURCES);
-    let key = format!("{code}|{seed}|{params:?}");
+    let key = format!("{code}|{key}");
     let path = store::path_in(dir, &key);
     if let Some(packing) = store::load(&path, &key, params.particles) {
         return Ok(packing);
