@@ -4,7 +4,7 @@
 use magopt::materials::MaterialDb;
 use magopt::models::align::dem::contacts::Container;
 use magopt::models::align::dem::{self, Packing};
-use magopt::models::align::{AlignParams, PressureMode};
+use magopt::models::align::{AlignParams, PressureMode, Status};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// No field (nothing turns) and no friction, at 5 atm.
@@ -81,5 +81,50 @@ fn exposed_layer_applies_the_punch_force_on_average() {
     assert!(
         coverage.iter().all(|c| (c - 1.0).abs() < 0.15),
         "{coverage:?}"
+    );
+}
+
+/// A sphere perched off-centre on the corner sphere of a 2 × 2 layer (moved 0.3 R along the
+/// diagonal), the lid resting on it at 30 atm, no friction: the load pushes it down the
+/// diagonal into the pocket of the four spheres, each held by the floor and two walls, where
+/// it comes to rest at height R + √2 R. At the step set by the rotation (about 1 s) the
+/// unresisted load carries it a large part of R in one step, past the 0.67 R gaps to the
+/// pocket's other spheres, which are not in the first velocity problems: the step must be
+/// split (`Run::heun_step`), not end in a runaway overlap. The lid then sits on the sphere in
+/// the pocket: it has fallen by the geometric drop, plus Hertz compressions of ~1e-2 R.
+#[test]
+fn a_loaded_lid_follows_a_sphere_that_slides_off_without_a_runaway_overlap() {
+    let mut params = unfielded(PressureMode::Punch);
+    params.pressure = 30.0 * 101_325.0;
+    params.max_time = 200.0;
+    let mut position: Vec<Vector3<f64>> = (0..4)
+        .map(|k| Vector3::new(1.0 + 2.0 * (k % 2) as f64, 1.0 + 2.0 * (k / 2) as f64, 1.0))
+        .collect();
+    let offset: f64 = 0.3;
+    let perched = 1.0 + (4.0 - offset * offset).sqrt();
+    let along = 1.0 + offset / 2f64.sqrt();
+    position.push(Vector3::new(along, along, perched));
+    let packing = Packing {
+        radius: vec![1.0; 5],
+        orientation: vec![UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.5); 5],
+        position,
+        container: Container {
+            lx: 4.0,
+            ly: 4.0,
+            top: None,
+        },
+        steps: [0; 3],
+    };
+    let out = dem::align(&params, &packing, None);
+    assert_eq!(
+        out.status,
+        Status::NotReached,
+        "the run must last to max_time"
+    );
+    let drop = perched - (1.0 + 2f64.sqrt());
+    let travel = out.lid_travel_m.unwrap() / params.scales().length;
+    assert!(
+        travel > drop && travel < drop + 0.03,
+        "lid fell {travel} R, the pocket is {drop} R below"
     );
 }

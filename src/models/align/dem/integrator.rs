@@ -62,18 +62,24 @@ impl Heun {
         self.advance(state, true);
     }
 
+    /// Returns the state to the start of the current step (positions, orientations, lid; the
+    /// predictor velocities stay as the next solve's warm start).
+    pub fn restore(&self, state: &mut State) {
+        state.copy_from(&self.start);
+    }
+
     /// Largest distance any particle (or the lid) moves in dt at its predictor or corrector
     /// velocity.
     pub fn largest_move(&self, state: &State) -> f64 {
-        let lid_speed = [self.start.lid, state.lid]
-            .iter()
-            .flatten()
-            .map(|l| l.velocity.abs())
-            .fold(0.0, f64::max);
-        self.start
+        self.stage_move(&self.start).max(self.stage_move(state))
+    }
+
+    /// Largest distance any particle (or the lid) would move in dt at the state's velocities.
+    pub fn stage_move(&self, state: &State) -> f64 {
+        let lid_speed = state.lid.map_or(0.0, |l| l.velocity.abs());
+        state
             .motion
             .iter()
-            .chain(&state.motion)
             .map(|m| m.v.norm())
             .fold(lid_speed, f64::max)
             * self.dt

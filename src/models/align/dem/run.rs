@@ -30,6 +30,8 @@ const SKIN: f64 = 0.2;
 /// Smallest gap (R_av) below which a pair enters the implicit velocity problem; the margin
 /// follows twice the largest displacement of the previous step (starting at the list skin).
 const MIN_CONTACT_MARGIN: f64 = 0.02;
+/// Deepest halving of a step whose moves outrun the skin (`Run::heun_step`): 2¹² substeps.
+const MAX_SPLITS: u32 = 12;
 
 /// One alignment run: its fixed data, evolving state and the work buffers of its stages.
 pub struct Run<'a> {
@@ -163,14 +165,54 @@ impl<'a> Run<'a> {
         outcome
     }
 
-    /// One Heun step.
+    /// One step of the run's length (its Heun steps, split where `heun_step` asks).
     fn step(&mut self) -> Result<(), String> {
+        let dt = self.heun.dt;
+        let result = self.heun_step(dt, 0);
+        self.heun.dt = dt;
+        result
+    }
+
+    /// One Heun step of length dt. Pairs farther apart than the contact margin are not in the
+    /// velocity problems, so nothing may move more than half the margin in the step, or an
+    /// unresisted pair could close. A step that would is taken again with a wider margin (up
+    /// to the list skin), and past that as two halves, at most `MAX_SPLITS` deep (beyond, the
+    /// overlap check is the arbiter). The loaded lid of a punch, resting at first on one
+    /// particle, would otherwise move several R_av in the first step at 10 atm.
+    fn heun_step(&mut self, dt: f64, splits: u32) -> Result<(), String> {
+        self.heun.dt = dt;
         self.solve_stage()?; // predictor velocities, at the step's start
+        let moved = self.heun.stage_move(&self.state);
+        if self.too_far(moved, splits) {
+            return self.retry(dt, splits, moved);
+        }
         self.heun.predict(&mut self.state);
         self.solve_stage()?; // corrector velocities, at the predicted state
-        self.law.skin = contact_margin(self.heun.largest_move(&self.state));
+        let moved = self.heun.largest_move(&self.state);
+        if self.too_far(moved, splits) {
+            self.heun.restore(&mut self.state);
+            return self.retry(dt, splits, moved);
+        }
+        self.law.skin = contact_margin(moved);
         self.heun.correct(&mut self.state);
         Ok(())
+    }
+
+    /// Whether a move of the step could close a gap left out of its velocity problems, with a
+    /// remedy left.
+    fn too_far(&self, moved: f64, splits: u32) -> bool {
+        2.0 * moved > self.law.skin && (self.law.skin < SKIN || splits < MAX_SPLITS)
+    }
+
+    /// Takes a step that moved too far again: with the margin doubled past the move (at most
+    /// the skin), or once it is the skin, as two halves.
+    fn retry(&mut self, dt: f64, splits: u32, moved: f64) -> Result<(), String> {
+        if self.law.skin < SKIN {
+            self.law.skin = contact_margin(2.0 * moved);
+            return self.heun_step(dt, splits);
+        }
+        self.heun_step(0.5 * dt, splits + 1)?;
+        self.heun_step(0.5 * dt, splits + 1)
     }
 
     /// Writes the current state as the moment `label`, or as a scheduled frame if one is due.
