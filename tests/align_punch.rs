@@ -85,17 +85,19 @@ fn exposed_layer_applies_the_punch_force_on_average() {
 }
 
 /// A sphere perched off-centre on the corner sphere of a 2 × 2 layer (moved 0.3 R along the
-/// diagonal), the lid resting on it at 30 atm, no friction: the load pushes it down the
-/// diagonal into the pocket of the four spheres, each held by the floor and two walls, where
-/// it comes to rest at height R + √2 R. At the step set by the rotation (about 1 s) the
-/// unresisted load carries it a large part of R in one step, past the 0.67 R gaps to the
-/// pocket's other spheres, which are not in the first velocity problems: the step must be
-/// split (`Run::heun_step`), not end in a runaway overlap. The lid then sits on the sphere in
-/// the pocket: it has fallen by the geometric drop, plus Hertz compressions of ~1e-2 R.
+/// diagonal), the lid resting on it at 300 atm (30 MPa, a compaction pressure), no friction:
+/// the load pushes it down the diagonal into the pocket of the four spheres, each held by the
+/// floor and two walls, where it comes to rest at height R + √2 R. At the step set by the
+/// rotation (about 1 s) the unresisted load carries it more than R in one step, past the
+/// 0.67 R gaps to the pocket's other spheres, which are not in the first velocity problems:
+/// unsplit, the run ends in a runaway overlap of 1.8 R (checked with the splitting switched
+/// off; at 10–100 atm this geometry survives unsplit steps). Split (`Run::heun_step`), the lid
+/// follows the sphere into the pocket: it falls by the geometric drop plus Hertz compressions
+/// of a few 1e-2 R.
 #[test]
 fn a_loaded_lid_follows_a_sphere_that_slides_off_without_a_runaway_overlap() {
     let mut params = unfielded(PressureMode::Punch);
-    params.pressure = 30.0 * 101_325.0;
+    params.pressure = 300.0 * 101_325.0;
     params.max_time = 200.0;
     let mut position: Vec<Vector3<f64>> = (0..4)
         .map(|k| Vector3::new(1.0 + 2.0 * (k % 2) as f64, 1.0 + 2.0 * (k / 2) as f64, 1.0))
@@ -124,7 +126,7 @@ fn a_loaded_lid_follows_a_sphere_that_slides_off_without_a_runaway_overlap() {
     let drop = perched - (1.0 + 2f64.sqrt());
     let travel = out.lid_travel_m.unwrap() / params.scales().length;
     assert!(
-        travel > drop && travel < drop + 0.03,
+        travel > drop && travel < drop + 0.1,
         "lid fell {travel} R, the pocket is {drop} R below"
     );
 }
