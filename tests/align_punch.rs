@@ -19,6 +19,23 @@ fn unfielded(mode: PressureMode) -> AlignParams {
     params
 }
 
+/// Spheres of radius 1 at `position` in a square die of side `side`, their axes horizontal
+/// (A = 0, so a run goes on until max_time).
+fn unit_spheres(position: Vec<Vector3<f64>>, side: f64) -> Packing {
+    let n = position.len();
+    Packing {
+        radius: vec![1.0; n],
+        orientation: vec![UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.5); n],
+        position,
+        container: Container {
+            lx: side,
+            ly: side,
+            top: None,
+        },
+        steps: [0; 3],
+    }
+}
+
 /// A static packing: one layer of 3 × 3 equal spheres on the floor, each touching its
 /// neighbours and the walls with zero overlap. Under the lid each sphere carries P L_x L_y / 9
 /// through two Hertz contacts with flat walls (lid and floor, R* = R), so at rest the lid
@@ -30,18 +47,7 @@ fn lid_on_a_static_packing_carries_exactly_the_applied_force_at_rest() {
     let position: Vec<Vector3<f64>> = (0..9)
         .map(|k| Vector3::new(1.0 + 2.0 * (k % 3) as f64, 1.0 + 2.0 * (k / 3) as f64, 1.0))
         .collect();
-    let packing = Packing {
-        radius: vec![1.0; 9],
-        // axes horizontal (A = 0), so the run goes on until max_time
-        orientation: vec![UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.5); 9],
-        position,
-        container: Container {
-            lx: 6.0,
-            ly: 6.0,
-            top: None,
-        },
-        steps: [0; 3],
-    };
+    let packing = unit_spheres(position, 6.0);
     let out = dem::align(&params, &packing, None);
     let (applied, nominal) = (out.applied_force_n.unwrap(), out.nominal_force_n.unwrap());
     assert!(
@@ -106,17 +112,7 @@ fn a_loaded_lid_follows_a_sphere_that_slides_off_without_a_runaway_overlap() {
     let perched = 1.0 + (4.0 - offset * offset).sqrt();
     let along = 1.0 + offset / 2f64.sqrt();
     position.push(Vector3::new(along, along, perched));
-    let packing = Packing {
-        radius: vec![1.0; 5],
-        orientation: vec![UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.5); 5],
-        position,
-        container: Container {
-            lx: 4.0,
-            ly: 4.0,
-            top: None,
-        },
-        steps: [0; 3],
-    };
+    let packing = unit_spheres(position, 4.0);
     let out = dem::align(&params, &packing, None);
     assert_eq!(
         out.status,
