@@ -253,6 +253,8 @@ fn near_field_error(cutoff: f64, theta: f64) -> f64 {
     p.field_strength = 0.0;
     p.drag = DragLaw::None;
     p.interactions = Interactions::parse("near-field").unwrap();
+    // Against the exact sum in double precision (the default sums in single precision).
+    p.near_field.precision = magopt::models::blast::NearFieldPrecision::Double;
     let positions = Cloud::blast(&p, 3).unwrap().positions;
     let cloud = Cloud::at_rest(positions, &p);
     let forces = |cutoff: f64, theta: f64| {

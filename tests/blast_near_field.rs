@@ -25,6 +25,8 @@ fn pair_forces(
     p.near_field.basis = basis;
     p.near_field.charge_sign = charge_sign;
     p.near_field.cutoff = cutoff;
+    // The law itself, to round-off: the default's single-precision lanes are checked apart.
+    p.near_field.precision = magopt::models::blast::NearFieldPrecision::Double;
     let direction = Vector3::new(1.0, 2.0, -2.0) / 3.0;
     let mut cloud = Cloud::at_rest(vec![Vector3::zeros(), distance * direction], &p);
     cloud.charge_per_mass[0] *= signs.0;
@@ -118,6 +120,7 @@ fn single_precision_follows_the_exact_run() {
     p.negative_fraction = 0.3;
     p.near_field.charge_sign = true;
     p.duration = 0.05;
+    p.near_field.precision = NearFieldPrecision::Double;
     let exact = run(&p, 3, &|_| {}, None).unwrap();
     p.near_field.precision = NearFieldPrecision::Single;
     let single = run(&p, 3, &|_| {}, None).unwrap();
@@ -136,4 +139,59 @@ fn single_precision_follows_the_exact_run() {
     );
     assert!(apart < 1e-6 * p.radius, "{apart:.2e} m");
     assert!(largest < 1e-6 && rms < 1e-6, "{largest:.1e} {rms:.1e}");
+}
+
+/// Two 4 × 4 × 4 lattices of the source's spheres (spacing 1.05 diameters, each site nudged
+/// off the lattice), their centres `apart` m apart along x; half the charges negative.
+fn two_clusters(p: &BlastParams, apart: f64) -> Cloud {
+    let spacing = 2.1 * p.radius;
+    let mut positions = Vec::new();
+    for side in [-0.5, 0.5] {
+        for k in 0..64 {
+            let (i, j, l) = ((k % 4) as f64, ((k / 4) % 4) as f64, (k / 16) as f64);
+            let nudge = 0.1 * p.radius * ((k * 37 % 11) as f64 / 11.0 - 0.5);
+            let site = Vector3::new(i + nudge, j - nudge, l) * spacing;
+            positions.push(site + Vector3::x() * side * apart);
+        }
+    }
+    let mut cloud = Cloud::at_rest(positions, p);
+    for (k, q) in cloud.charge_per_mass.iter_mut().enumerate() {
+        *q *= if k % 2 == 0 { 1.0 } else { -1.0 };
+    }
+    cloud
+}
+
+/// The near-field forces of `precision` on `cloud`, N.
+fn near_field_forces(
+    p: &BlastParams,
+    precision: magopt::models::blast::NearFieldPrecision,
+    cloud: &Cloud,
+) -> Vec<Vector3<f64>> {
+    let mut p = p.clone();
+    p.near_field.precision = precision;
+    Interactor::new(&p, cloud.len()).near_field(cloud)
+}
+
+/// The default precision (`auto`) sums in single precision while the cloud is at most 1000
+/// particle diameters across, and there its error stays within the bound that sets the limit
+/// (10⁻³ of the largest force; two clusters at the ends of a 997-diameter box, where the
+/// rounding of the coordinates is largest); beyond the limit it gives the exact sum's bits.
+#[test]
+fn auto_precision_is_single_within_the_extent_limit_and_exact_beyond() {
+    use magopt::models::blast::interact::near_field_error;
+    use magopt::models::blast::NearFieldPrecision::{Auto, Double, Single};
+    let mut p = BlastParams::source_example();
+    p.interactions = Interactions::parse("near-field").unwrap();
+    p.near_field.charge_sign = true;
+    let diameter = 2.0 * p.radius;
+    let cluster = 3.0 * 1.05 * diameter + diameter;
+    for (across, single) in [(997.0, true), (1003.0, false)] {
+        let cloud = two_clusters(&p, across * diameter - cluster);
+        let auto = near_field_forces(&p, Auto, &cloud);
+        let expected = near_field_forces(&p, if single { Single } else { Double }, &cloud);
+        assert_eq!(auto, expected, "{across} diameters");
+        let (largest, rms) = near_field_error(&p, &cloud);
+        eprintln!("{across} diameters: error {largest:.1e} largest, {rms:.1e} rms");
+        assert!(largest < 1e-3, "{largest:.1e}");
+    }
 }

@@ -76,4 +76,10 @@ fn print_summary(params: &BlastParams, record: &RunRecord) {
             m("mean_iterations")
         );
     }
+    if let Some(single) = result.metric("near_field_single_precision_fraction") {
+        println!(
+            "near field over all pairs: {:.1} % of its evaluations in single precision",
+            100.0 * single
+        );
+    }
 }

@@ -99,9 +99,9 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 0.0)]
     near_field_theta: f64,
     /// blast: arithmetic of the interacting example's all-pairs near field, comma-separated
-    /// (double, single); each row reports its error against the exact double-precision sum
+    /// (auto, double, single); each row reports its error against the exact double-precision sum
     /// on the run's final cloud.
-    #[arg(long, default_value = "double", value_delimiter = ',')]
+    #[arg(long, default_value = "auto", value_delimiter = ',')]
     near_field_precision: Vec<String>,
     /// Also write the rows as JSON to DIR/bench-<model>.json.
     #[arg(long, value_name = "DIR")]

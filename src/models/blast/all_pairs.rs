@@ -15,7 +15,7 @@ use std::arch::x86_64::*;
 
 use super::pairs::PairLaw;
 use super::params::NearFieldPrecision;
-use super::single::SinglePairs;
+use super::single::{self, SinglePairs};
 #[cfg(target_arch = "x86_64")]
 use crate::numerics::tiled_pairs::negate;
 use crate::numerics::tiled_pairs::{PairTerm, TiledPairs, TILE};
@@ -37,17 +37,27 @@ struct Coordinates {
 pub struct AllPairs {
     at: Coordinates,
     tiles: TiledPairs<3>,
-    /// The single-precision kernel, when chosen instead.
+    /// The single-precision kernel, when it may be chosen instead.
     single: Option<SinglePairs>,
+    /// Whether single precision is taken only within [`single::EXTENT_LIMIT`] (`auto`).
+    limited: bool,
+    /// Evaluations so far: (all, in single precision).
+    evaluations: (usize, usize),
 }
 
 impl AllPairs {
     /// The kernel in the given arithmetic.
     pub fn new(precision: NearFieldPrecision) -> Self {
         Self {
-            single: (precision == NearFieldPrecision::Single).then(SinglePairs::default),
+            single: (precision != NearFieldPrecision::Double).then(SinglePairs::default),
+            limited: precision == NearFieldPrecision::Auto,
             ..Self::default()
         }
+    }
+
+    /// Evaluations so far: (all, in single precision).
+    pub fn evaluations(&self) -> (usize, usize) {
+        self.evaluations
     }
 
     /// Near-field force on every particle from all others, written into `out`, N. Only for
@@ -59,8 +69,12 @@ impl AllPairs {
         charge_per_mass: &[f64],
         out: &mut [Vector3<f64>],
     ) {
-        if let Some(single) = &mut self.single {
-            return single.sum(law, positions, charge_per_mass, out);
+        self.evaluations.0 += 1;
+        if let Some(lanes) = &mut self.single {
+            if !self.limited || single::within_extent_limit(law, positions) {
+                self.evaluations.1 += 1;
+                return lanes.sum(law, positions, charge_per_mass, out);
+            }
         }
         self.at.load(law, positions, charge_per_mass);
         self.tiles.fill(&self.at);

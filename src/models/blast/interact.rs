@@ -78,6 +78,14 @@ impl Interactor {
         &self.law
     }
 
+    /// All-pairs near-field evaluations so far: (all, in single precision); (0, 0) where the
+    /// near field is off or summed by a cut-off list or a tree.
+    pub fn all_pairs_evaluations(&self) -> (usize, usize) {
+        self.all_pairs
+            .as_ref()
+            .map_or((0, 0), AllPairs::evaluations)
+    }
+
     /// Number of bonded pairs.
     pub fn bond_count(&self) -> usize {
         self.bonds.iter().map(Vec::len).sum::<usize>() / 2

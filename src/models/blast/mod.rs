@@ -141,7 +141,10 @@ impl Simulation {
                 dt_max: self.params.step.dt,
                 ..Default::default()
             },
-            Stepper::Implicit(boxed) => boxed.0.stats.clone(),
+            Stepper::Implicit(boxed) => StepStats {
+                all_pairs_evaluations: boxed.1.all_pairs_evaluations(),
+                ..boxed.0.stats.clone()
+            },
         }
     }
 

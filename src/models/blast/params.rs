@@ -94,10 +94,15 @@ pub enum NearFieldBasis {
 /// Arithmetic of the exact all-pairs near-field sum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NearFieldPrecision {
-    /// Double precision: the exact sum to round-off (the default).
+    /// Single precision wherever its error is bounded below 10⁻³ (the all-pairs sum with
+    /// β = (1, 2) over a cloud at most [`super::single::EXTENT_LIMIT`] diameters across,
+    /// decided at each evaluation), double precision elsewhere (the default).
+    Auto,
+    /// Double precision: the exact sum to round-off.
     Double,
-    /// Single-precision lanes with double-precision tile sums: force error of order 10⁻⁶
-    /// of the exact sum, about a third of its cost (β = (1, 2), no cut-off or tree).
+    /// Single-precision lanes with double-precision tile sums at any extent: force error of
+    /// order 10⁻⁷ of the exact sum on the source's clouds, about half its cost (β = (1, 2),
+    /// no cut-off or tree).
     Single,
 }
 
@@ -254,7 +259,7 @@ impl BlastParams {
                 repulsion_exponent: 2.0,
                 cutoff: 0.0,
                 theta: 0.0,
-                precision: NearFieldPrecision::Double,
+                precision: NearFieldPrecision::Auto,
             },
             step: StepParams {
                 integrator: Integrator::Auto,

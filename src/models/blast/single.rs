@@ -1,7 +1,8 @@
-//! The near-field sum over all pairs (C8) in single precision: an opt-in approximation of
-//! the exact sum ([`super::all_pairs`]) for the source's exponents β = (1, 2), with an error
-//! of order 10⁻⁶ of the force (test `single_precision_stays_within_a_millionth_of_the_exact_sum`)
-//! at roughly a third of the exact kernel's cost.
+//! The near-field sum over all pairs (C8) in single precision: an approximation of the exact
+//! sum ([`super::all_pairs`]) for the source's exponents β = (1, 2), with an error of order
+//! 10⁻⁷–10⁻⁶ of the force (test `single_precision_stays_within_a_millionth_of_the_exact_sum`)
+//! at roughly half the exact kernel's cost. The default (`auto`) uses it while the cloud is
+//! at most [`EXTENT_LIMIT`] diameters across, where its error has a bound below 10⁻³.
 //!
 //! Why it is faster: the exact kernel is bound by one square root and one division per pair
 //! on four double lanes; here eight single lanes share each such instruction, and the
@@ -27,6 +28,22 @@ use std::arch::x86_64::*;
 
 use super::pairs::PairLaw;
 use crate::numerics::tiled_pairs::{results_of, size_tile_pairs, tile, TilePair};
+
+/// The largest bounding-box side, in particle diameters, over which `auto` precision uses
+/// these lanes. Why 1000: centred coordinates of magnitude ≤ E/2 are rounded within
+/// (E/2)·2⁻²⁴, so a separation's error is at most √3·E·2⁻²⁴; a pair term d·(A1/r² − A2/r³)
+/// changes by at most 4|δd|/r of its two parts' magnitudes, and the kernel's own rounding
+/// (square root, division, products, 128-term tile sums) adds at most about 150·2⁻²⁴. For
+/// pairs no closer than half a diameter, the bound relative to the summed magnitudes of a
+/// particle's pair terms is 2⁻²⁴(8√3·E + 150) = 8.4·10⁻⁴ at E = 1000: within issue 18's 10⁻³.
+pub const EXTENT_LIMIT: f64 = 1000.0;
+
+/// Whether the cloud at `positions` fits within [`EXTENT_LIMIT`] diameters of `law`'s
+/// particles along every axis.
+pub fn within_extent_limit(law: &PairLaw, positions: &[Vector3<f64>]) -> bool {
+    let (low, high) = bounding_box(positions);
+    (high - low).max() <= EXTENT_LIMIT * 2.0 * law.radius
+}
 
 /// Single-precision lanes of an AVX register (TILE is a multiple).
 const LANES: usize = 8;
@@ -134,13 +151,18 @@ impl SinglePairs {
 
 /// Midpoint of the positions' bounding box (the origin for none).
 fn bounding_box_centre(positions: &[Vector3<f64>]) -> Vector3<f64> {
-    let Some(first) = positions.first() else {
-        return Vector3::zeros();
-    };
-    let (low, high) = positions
-        .iter()
-        .fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+    let (low, high) = bounding_box(positions);
     0.5 * (low + high)
+}
+
+/// The positions' lowest and highest corner (the origin twice for none).
+fn bounding_box(positions: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    let Some(first) = positions.first() else {
+        return (Vector3::zeros(), Vector3::zeros());
+    };
+    positions
+        .iter()
+        .fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)))
 }
 
 /// The pair term's scale for the separation d (scaled): inv² (c1 − c2 inv), zero at d = 0;

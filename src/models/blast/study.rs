@@ -402,11 +402,14 @@ static PARAMETERS: &[BlastParam] = &[
     ),
     choice_param!(
         "near_field_precision",
-        "Arithmetic of the all-pairs near-field sum: double (exact to round-off) or single \
-         (single-precision lanes, double-precision tile sums: force error ~1e-6, about a third \
-         of the cost; cut-off 0, theta 0, exponents (1, 2))",
+        "Arithmetic of the all-pairs near-field sum: auto (single precision while the cloud \
+         is at most 1000 particle diameters across, where its error is bounded below 1e-3 of \
+         the pair forces; double beyond, or with a cut-off, a tree or other exponents), double \
+         (exact to round-off) or single (single-precision lanes, double-precision tile sums, \
+         at any extent; cut-off 0, theta 0, exponents (1, 2))",
         near_field.precision,
         [
+            ("auto", NearFieldPrecision::Auto),
             ("double", NearFieldPrecision::Double),
             ("single", NearFieldPrecision::Single)
         ]
@@ -483,6 +486,7 @@ const METRICS: &[&str] = &[
     "steps",
     "rejected_steps",
     "mean_iterations",
+    "near_field_single_precision_fraction",
     "min_time_step_s",
     "max_time_step_s",
     "terminal_time_s",
@@ -527,6 +531,12 @@ pub fn parse_direction(text: &str) -> std::result::Result<Vector3<f64>, String> 
     Ok(sign * v)
 }
 
+/// The fraction of all-pairs near-field evaluations done in single precision; none where
+/// the near field was not summed over all pairs.
+fn single_precision_fraction((all, single): (usize, usize)) -> Option<f64> {
+    (all > 0).then(|| single as f64 / all as f64)
+}
+
 impl BlastModel {
     /// The run as a study result.
     pub fn result(params: &BlastParams, outcome: &BlastOutcome) -> RunResult {
@@ -558,6 +568,10 @@ impl BlastModel {
             (
                 "mean_iterations",
                 interacting.then(|| stats.iterations as f64 / stats.steps.max(1) as f64),
+            ),
+            (
+                "near_field_single_precision_fraction",
+                single_precision_fraction(stats.all_pairs_evaluations),
             ),
             ("min_time_step_s", finite(stats.dt_min)),
             ("max_time_step_s", finite(stats.dt_max)),

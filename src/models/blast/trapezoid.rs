@@ -35,6 +35,8 @@ pub struct StepStats {
     pub dt_min: f64,
     /// Largest accepted adaptive step, s.
     pub dt_max: f64,
+    /// All-pairs near-field evaluations: (all, in single precision).
+    pub all_pairs_evaluations: (usize, usize),
 }
 
 /// The adaptive trapezoidal stepper with its reusable buffers.
