@@ -145,7 +145,7 @@ Side views at t = 0.5 s and 1 s, and the largest cluster over time, of the cut-o
     final; past the collapse every pair touches and the contacts set steps of microseconds,
     so the run stops there);
   - area and volume: **disagree** — too weak to agglomerate. Over the source's full 1 s
-    with the exact sum: aspect ratio $(m dense-nf-area-1s aspect_ratio) (area) and $(m dense-nf-volume-1s aspect_ratio) (volume) against
+    with the all-pairs sum: aspect ratio $(m dense-nf-area-1s aspect_ratio) (area) and $(m dense-nf-volume-1s aspect_ratio) (volume) against
     $(m dense-bonds-1s aspect_ratio) with contact and bonds only; kinetic energy $(m dense-nf-area-1s kinetic_energy_J) J and $(m dense-nf-volume-1s kinetic_energy_J) J against
     $(m dense-bonds-1s kinetic_energy_J) J; $(m dense-nf-area-1s bonds %.0f) and $(m dense-nf-volume-1s bonds %.0f) bonds, largest cluster $(m dense-nf-area-1s largest_cluster %.0f) and $(m dense-nf-volume-1s largest_cluster %.0f).
     The area reading's collective pull slows the expansion a little; neither forms clumps;
@@ -172,13 +172,17 @@ gives no forces, duration or criterion for this step; magopt uses the RSA placem
 ## Speed
 
 Non-interacting example (N = $n, 1 s, 10 000 Boris steps): $(m field-on wall_time_s %.2f) s wall. Interacting,
-exact near-field sums over all pairs, N = $(m dense-nf-area-1s parameters.particles %.0f), the source's full 1 s (area reading,
+near-field sums over all pairs in the default arithmetic (\`auto\`: single precision while the
+cloud spans at most 1000 diameters, error bound 8.4e-4 of the pair terms, docs/blast.md; the
+share of evaluations in single precision: $(m dense-nf-mass-1s near_field_single_precision_fraction) in the mass reading, $(m dense-nf-area-1s near_field_single_precision_fraction) in the area
+reading), N = $(m dense-nf-area-1s parameters.particles %.0f), the source's full 1 s (area reading,
 which leaves the cloud expanding as without the near field): $(m dense-nf-area-1s wall_time_s %.1f) s wall ($(m dense-nf-area-1s steps %.0f) steps,
 $(m dense-nf-area-1s mean_iterations %.2f) iterations per step; volume reading $(m dense-nf-volume-1s wall_time_s %.1f) s). The mass reading, which
 collapses the cloud: $(m dense-nf-mass-1s wall_time_s %.1f) s wall for the 1 s ($(m dense-nf-mass-1s steps %.0f) steps; the contacts of the collapsed
-cluster take about 40 % of it). These wall times were taken while other jobs shared the 2
-cores; the README's \`blast\` benchmark gives the quiet machine's (mass reading: 132 s on 2
-threads, 228 s on 1). The charge-based readings' steps shrink after their collapse, so
+cluster take a large part of it). Runs made with the exact double-precision sum
+(\`--near-field-precision double\`, the default before 2026-12-03) took 1.9× longer in the
+benchmark (results/bench/README.md, "\`blast\`: single precision by default"); the
+README's \`blast\` benchmark gives the timings on a stated machine. The charge-based readings' steps shrink after their collapse, so
 they stop at 2 ms. The source's
 "under one minute" (§6.1) is said of its non-interacting example; it gives no time for the
 interacting runs. The all-pairs sum is a vectorized kernel (\`src/models/blast/all_pairs.rs\`,

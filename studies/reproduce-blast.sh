@@ -76,7 +76,7 @@ for c in none contact bonds; do
   run dense-$c-1s --particles $dense --energy "$(energy $dense)" --duration 1s --samples 20 \
     --interactions $what
 done
-# the mass, area and volume readings to 1 s with the exact sum (the all-pairs kernel: minutes)
+# the mass, area and volume readings to 1 s with the all-pairs sum (default arithmetic: seconds)
 for basis in mass area volume; do
   run dense-nf-$basis-1s --particles $dense --energy "$(energy $dense)" --duration 1s \
     --samples 20 --interactions all --near-field-basis $basis
