@@ -12,8 +12,9 @@ use super::exact::ExactSums;
 use super::far_field::FarField;
 use super::list_gather::{pair_sums, Partner};
 use super::list_pairs::HalfList;
-use super::params::{BedParams, Neighbors, WallLaw};
+use super::params::{BedParams, Neighbors, TailCorrection, WallLaw};
 use super::state::{Geometry, Particles, State};
+use super::tail::Tail;
 use super::walls::{Walls, WALL_NORMALS};
 use crate::neighbor::{NeighborList, Watch};
 use crate::numerics::fold_items;
@@ -117,6 +118,8 @@ pub struct ForceField {
     dry: bool,
     geometry: Geometry,
     pairs: Pairs,
+    /// The mean-field tail beyond the cut-off, where asked for.
+    tail: Option<Tail>,
     partner: Vec<Partner>,
     /// Per-particle results of the last evaluation.
     pub out: Vec<ParticleForce>,
@@ -179,6 +182,13 @@ impl ForceField {
                 }
             }
         };
+        let tail = (params.tail_correction == TailCorrection::MeanField).then(|| {
+            let moment_sin: Vec<f64> = (particles.moment.iter().zip(&particles.tilt_sin))
+                .map(|(mu, sin)| mu * sin)
+                .collect();
+            let rc = params.cutoff.diameters(d1) * d1;
+            Tail::new(rc, &particles.moment, &moment_sin)
+        });
         Self {
             pair: 3.0 * MU0 / (4.0 * PI),
             wall_law: params.wall_law,
@@ -187,6 +197,7 @@ impl ForceField {
             dry: params.friction.dry(),
             geometry,
             pairs,
+            tail,
             partner: (0..n)
                 .map(|j| Partner {
                     moment: particles.moment[j],
@@ -243,6 +254,9 @@ impl ForceField {
             if let Some(split) = self.split_mut() {
                 split.far = far;
             }
+        }
+        if let Some(tail) = &mut self.tail {
+            tail.update(position);
         }
         let mut out = std::mem::take(&mut self.out);
         per_particle(&mut out, n, |i| self.particle(i, particles, state));
@@ -329,6 +343,10 @@ impl ForceField {
             | Pairs::Tree { split, .. } => self
                 .list_sums(i, &split.near_half, &split.near)
                 .plus(&split.far[i]),
+        };
+        let acc = match &self.tail {
+            Some(tail) => acc.with_tail(tail.at(state.position[i])),
+            None => acc,
         };
         let (mu, m) = (particles.moment[i], particles.mass[i]);
         let mut out = ParticleForce {
@@ -448,6 +466,16 @@ pub(super) struct PairSums {
 }
 
 impl PairSums {
+    /// The sums with the tails (of the force sum, of the normal sum) of the pairs beyond the
+    /// cut-off added; the maxima come from the pairs summed.
+    fn with_tail(self, (force, normal): (Vector2<f64>, f64)) -> PairSums {
+        PairSums {
+            force: self.force + force,
+            normal: self.normal + normal,
+            ..self
+        }
+    }
+
     /// The sums over the union of two disjoint sets of pairs.
     fn plus(self, other: &PairSums) -> PairSums {
         PairSums {

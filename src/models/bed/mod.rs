@@ -27,6 +27,7 @@ pub mod protocol;
 pub mod report;
 pub mod state;
 pub mod study;
+mod tail;
 mod validate;
 mod walls;
 

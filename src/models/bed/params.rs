@@ -84,6 +84,18 @@ pub enum Neighbors {
     Tree,
 }
 
+/// What stands for the pairs beyond the cut-off r_c of a list (docs/bed.md, "Tail correction").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TailCorrection {
+    /// Nothing: the sums are truncated at r_c (the default).
+    None,
+    /// The discs beyond r_c spread uniformly over the bed's region (its discs' bounding box
+    /// widened by half their mean spacing): closed-form tails of the B1 and B4 sums, added to
+    /// every disc's list sums (`verlet` and `cells` only).
+    MeanField,
+}
+
 /// How dry friction is integrated (see `integrator`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -231,6 +243,8 @@ pub struct BedParams {
     /// Near cut-off r_s in units of D_1 of the multiple time stepping and of `tree` (3;
     /// 0 < r_s, and r_s < r_c with `verlet`).
     pub near_cutoff: Reach,
+    /// What stands for the pairs beyond r_c of `verlet` and `cells` (none by default).
+    pub tail_correction: TailCorrection,
     /// Opening angle θ of `tree`: a group of discs acts through its multipoles when its extent
     /// is below θ times its gap to the summing leaf (0.5; 0 sums every pair exactly).
     pub opening_angle: f64,
@@ -300,6 +314,7 @@ impl BedParams {
             rebuild_skin: Reach::Diameters(4.13),
             far_field_interval: 1,
             near_cutoff: Reach::Diameters(3.0),
+            tail_correction: TailCorrection::None,
             opening_angle: 0.5,
             time_step_factor: 0.2,
             max_time_step: 1e-3,

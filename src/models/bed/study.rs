@@ -5,8 +5,8 @@ use super::damper::{damper, REST_LIMIT};
 use std::path::Path;
 
 use super::params::{
-    BedParams, Friction, FrictionScheme, Heights, Neighbors, Preset, Reach, Species, TiltOrder,
-    WallLaw,
+    BedParams, Friction, FrictionScheme, Heights, Neighbors, Preset, Reach, Species,
+    TailCorrection, TiltOrder, WallLaw,
 };
 use super::protocol::{cycle, recorded};
 use super::report::cycle_figures;
@@ -469,6 +469,17 @@ static PARAMETERS: &[BedParam] = &[
             Ok(())
         },
     },
+    choice_param!(
+        "tail_correction",
+        "What stands for the pairs beyond the cut-off of verlet and cells: none (truncated \
+         sums) or mean-field (the discs beyond r_c spread uniformly over the bed: closed-form \
+         tails of the pair-force and plate-normal sums)",
+        tail_correction,
+        [
+            ("none", TailCorrection::None),
+            ("mean-field", TailCorrection::MeanField)
+        ]
+    ),
     number_param!(
         ParamSpec::new(
             "opening_angle",

@@ -2,7 +2,7 @@
 //! in `study.rs`): every message names the fields, their values and what is allowed (bad input
 //! is exit code 2 at the command line).
 
-use super::params::{BedParams, Heights, Neighbors};
+use super::params::{BedParams, Heights, Neighbors, TailCorrection};
 use super::state::{grid_spacing, Geometry};
 use crate::{Error, Result};
 
@@ -37,6 +37,18 @@ impl BedParams {
                     "near_cutoff {rs} D1: need r_s < r_c = {rc} D1"
                 )));
             }
+        }
+        let uncut = match self.neighbors {
+            Neighbors::Exact => Some("exact"),
+            Neighbors::SourceVerlet => Some("source-verlet"),
+            Neighbors::Tree => Some("tree"),
+            Neighbors::Verlet | Neighbors::Cells => None,
+        };
+        if let (TailCorrection::MeanField, Some(name)) = (self.tail_correction, uncut) {
+            return Err(Error::input(format!(
+                "tail_correction mean-field with neighbors = {name}: the tail stands for the \
+                 pairs beyond a sharp cut-off, so it needs neighbors = verlet or cells"
+            )));
         }
         self.validate_species()?;
         self.validate_packing()

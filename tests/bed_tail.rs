@@ -1,0 +1,102 @@
+//! The mean-field tail of the cut-off sums (docs/bed.md, "Tail correction") against exact
+//! sums on a bed whose discs are spread as the model assumes: a triangular lattice filling a
+//! rectangle. The list alone misses the pairs beyond r_c; the tail must put most of them
+//! back, in the plate normal force (B4: a sum without cancellation) and in the push of the
+//! discs near the top edge towards the piston (B1: the sum cancels in the bulk, not there).
+
+use magopt::models::bed::forces::ForceField;
+use magopt::models::bed::params::{BedParams, Neighbors, TailCorrection};
+use magopt::models::bed::state::{Geometry, Particles, State};
+use nalgebra::Vector2;
+
+/// 60 × 34 sites of a triangular lattice of spacing 1.8 D (the packing fraction 0.28 of the
+/// source's beds), centred in a cell twice its size.
+fn lattice(d: f64) -> (Vec<Vector2<f64>>, Geometry) {
+    let a = 1.8 * d;
+    let (columns, rows) = (60, 34);
+    let (width, height) = (2.0 * columns as f64 * a, 2.0 * rows as f64 * a * 0.866);
+    let origin = Vector2::new(0.25 * width, 0.25 * height);
+    let position = (0..rows)
+        .flat_map(|r| (0..columns).map(move |c| (r, c)))
+        .map(|(r, c)| {
+            let shift = if r % 2 == 0 { 0.0 } else { 0.5 };
+            origin + Vector2::new((c as f64 + shift) * a, r as f64 * a * 3f64.sqrt() / 2.0)
+        })
+        .collect();
+    let geometry = Geometry {
+        width,
+        height,
+        start_height: height,
+        final_height: height,
+    };
+    (position, geometry)
+}
+
+/// (per-disc force, per-disc plate normal force) with these neighbours and tail.
+fn forces(
+    neighbors: Neighbors,
+    tail: TailCorrection,
+) -> (Vec<Vector2<f64>>, Vec<f64>, Vec<Vector2<f64>>) {
+    let mut params = BedParams::defaults();
+    params.neighbors = neighbors;
+    params.tail_correction = tail;
+    let d = params.reference_diameter();
+    let (position, geometry) = lattice(d);
+    let n = position.len();
+    let particles = Particles::new(&params, vec![0; n]);
+    let state = State {
+        position: position.clone(),
+        velocity: vec![Vector2::zeros(); n],
+        piston: geometry.height,
+        time: 0.0,
+    };
+    let mut field = ForceField::new(&params, &particles, geometry);
+    field.evaluate(&particles, &state);
+    let force = field.out.iter().map(|o| o.force).collect();
+    let normal = field.out.iter().map(|o| o.normal).collect();
+    (force, normal, position)
+}
+
+#[test]
+fn the_mean_field_tail_puts_back_the_pairs_beyond_the_cut_off_on_a_lattice() {
+    let (exact_f, exact_n, position) = forces(Neighbors::Exact, TailCorrection::None);
+    let (list_f, list_n, _) = forces(Neighbors::Verlet, TailCorrection::None);
+    let (tail_f, tail_n, _) = forces(Neighbors::Verlet, TailCorrection::MeanField);
+    // B4: the summed plate normal force, and each disc's
+    let total = |v: &[f64]| v.iter().sum::<f64>();
+    let (missing, left) = (
+        total(&list_n) - total(&exact_n),
+        total(&tail_n) - total(&exact_n),
+    );
+    let rms = |v: &[f64]| {
+        let s: f64 = v.iter().zip(&exact_n).map(|(a, e)| (a - e) * (a - e)).sum();
+        (s / v.len() as f64).sqrt()
+    };
+    eprintln!(
+        "normal: list {:.3e} N ({:.2} %), with tail {:.3e} N; rms per disc {:.3e} → {:.3e} N",
+        missing,
+        100.0 * missing / total(&exact_n),
+        left,
+        rms(&list_n),
+        rms(&tail_n)
+    );
+    assert!(left.abs() < 0.1 * missing.abs(), "{missing:.3e} {left:.3e}");
+    assert!(rms(&tail_n) < 0.2 * rms(&list_n));
+    // B1: the upward push on the discs within r_c of the top edge (what the piston holds)
+    let (rc, top) = (
+        7.13 * BedParams::defaults().reference_diameter(),
+        position.iter().map(|p| p.y).fold(f64::MIN, f64::max),
+    );
+    let push = |f: &[Vector2<f64>]| -> f64 {
+        (f.iter().zip(&position))
+            .filter(|(_, p)| p.y > top - rc)
+            .map(|(f, _)| f.y)
+            .sum()
+    };
+    let (missing, left) = (
+        push(&list_f) - push(&exact_f),
+        push(&tail_f) - push(&exact_f),
+    );
+    eprintln!("push on the top rows: list {missing:.3e} N, with tail {left:.3e} N");
+    assert!(left.abs() < 0.1 * missing.abs(), "{missing:.3e} {left:.3e}");
+}
