@@ -81,22 +81,25 @@ impl Tail {
 }
 
 /// ∫ ŝ/|s|⁴ dA and ∫ 1/|s|³ dA over the plane outside `region` and outside the disc |s| ≤ rc
-/// about `at` (a point inside the region).
+/// about `at` (a point inside the region). Each edge distance is inverted once and shared by
+/// its half-plane and its two corners (the divisions are most of the cost).
 fn outside(region: (Vector2<f64>, Vector2<f64>), at: Vector2<f64>, rc: f64) -> (Vector2<f64>, f64) {
     let below = at - region.0; // distances to the left and bottom edges
     let above = region.1 - at; // to the right and top edges
+    let edge = |d: f64| Edge { d, inv: 1.0 / d };
+    let (left, right, bottom, top) = (edge(below.x), edge(above.x), edge(below.y), edge(above.y));
     let mut g = Vector2::zeros();
     let mut s = 0.0;
-    for axis in 0..2 {
-        for (d, sign) in [(below[axis], -1.0), (above[axis], 1.0)] {
-            let (normal, sum) = half_plane(d, rc);
+    for (axis, low, high) in [(0, left, right), (1, bottom, top)] {
+        for (e, sign) in [(low, -1.0), (high, 1.0)] {
+            let (normal, sum) = half_plane(e, rc);
             g[axis] += sign * normal;
             s += sum;
         }
     }
-    for (dx, sx) in [(below.x, -1.0), (above.x, 1.0)] {
-        for (dy, sy) in [(below.y, -1.0), (above.y, 1.0)] {
-            let (q, sum) = quadrant(dx, dy, rc);
+    for (x, sx) in [(left, -1.0), (right, 1.0)] {
+        for (y, sy) in [(bottom, -1.0), (top, 1.0)] {
+            let (q, sum) = quadrant(x, y, rc);
             g -= Vector2::new(sx * q.x, sy * q.y);
             s -= sum;
         }
@@ -104,45 +107,79 @@ fn outside(region: (Vector2<f64>, Vector2<f64>), at: Vector2<f64>, rc: f64) -> (
     (g, s)
 }
 
-/// The half-plane beyond an edge at distance d > 0, outside the disc of radius rc: (its
-/// ∫ ŝ/|s|⁴ dA along the outward normal, its ∫ 1/|s|³ dA). With u = d/rc < 1 the disc cuts
-/// the edge over the angles |φ| < φ0 = arccos u.
-fn half_plane(d: f64, rc: f64) -> (f64, f64) {
-    let u = d / rc;
-    if u >= 1.0 {
-        return (2.0 / (3.0 * d * d), 2.0 / d);
+/// An edge's distance d > 0 from the point and 1/d.
+#[derive(Clone, Copy)]
+struct Edge {
+    d: f64,
+    inv: f64,
+}
+
+/// The half-plane beyond an edge, outside the disc of radius rc: (its ∫ ŝ/|s|⁴ dA along the
+/// outward normal, its ∫ 1/|s|³ dA). With u = d/rc < 1 the disc cuts the edge over the
+/// angles |φ| < φ0 = arccos u.
+fn half_plane(e: Edge, rc: f64) -> (f64, f64) {
+    let (d, inv) = (e.d, e.inv);
+    if d >= rc {
+        return (2.0 / 3.0 * inv * inv, 2.0 * inv);
     }
+    let u = d / rc;
     let sin0 = (1.0 - u * u).sqrt();
     let one_minus_sin0 = u * u / (1.0 + sin0);
-    let normal = sin0 / (rc * rc) + cube_tail(one_minus_sin0, sin0) / (d * d);
-    let sum = 2.0 * u.acos() / rc + 2.0 * one_minus_sin0 / d;
+    let normal = sin0 / (rc * rc) + cube_tail(one_minus_sin0, sin0) * inv * inv;
+    let sum = 2.0 * u.acos() / rc + 2.0 * one_minus_sin0 * inv;
     (normal, sum)
 }
 
-/// The quadrant x > dx, y > dy (dx, dy > 0) outside the disc of radius rc: (its ∫ ŝ/|s|⁴ dA,
-/// its ∫ 1/|s|³ dA). Along φ in (0, π/2) the quadrant starts at dy/sin φ below the angle φ1
-/// and at dx/cos φ above φ2, and at rc in between, where the disc holds its corner
-/// (φ1 = arcsin(dy/rc), φ2 = arccos(dx/rc); φ1 = φ2 = the corner's angle when it lies outside
-/// the disc).
-fn quadrant(dx: f64, dy: f64, rc: f64) -> (Vector2<f64>, f64) {
-    let corner = dx.hypot(dy);
-    let ((sin1, cos1, phi1), (sin2, cos2, phi2)) = if corner >= rc {
-        let (s, c) = (dy / corner, dx / corner);
-        let phi = dy.atan2(dx);
-        ((s, c, phi), (s, c, phi))
-    } else {
-        let (s1, c2) = (dy / rc, dx / rc);
-        let (c1, s2) = ((1.0 - s1 * s1).sqrt(), (1.0 - c2 * c2).sqrt());
-        ((s1, c1, s1.asin()), (s2, c2, c2.acos()))
-    };
-    let one_minus_cos1 = sin1 * sin1 / (1.0 + cos1);
-    let one_minus_sin2 = cos2 * cos2 / (1.0 + sin2);
-    // below φ1 (the edge y = dy), between (the disc), above φ2 (the edge x = dx)
-    let low = Vector2::new(sin1.powi(3) / 3.0, cube_tail(one_minus_cos1, cos1)) / (2.0 * dy * dy);
+/// The quadrant beyond the edges x = dx and y = dy (dx, dy > 0) outside the disc of radius
+/// rc: (its ∫ ŝ/|s|⁴ dA, its ∫ 1/|s|³ dA). Along φ in (0, π/2) the quadrant starts at
+/// dy/sin φ below the angle φ1 and at dx/cos φ above φ2, and at rc in between, where the disc
+/// holds its corner (φ1 = arcsin(dy/rc), φ2 = arccos(dx/rc); φ1 = φ2 = the corner's angle
+/// when it lies outside the disc).
+fn quadrant(x: Edge, y: Edge, rc: f64) -> (Vector2<f64>, f64) {
+    let (dx, dy) = (x.d, y.d);
+    let corner2 = dx * dx + dy * dy;
+    if corner2 >= rc * rc {
+        // φ1 = φ2 = the corner's angle: no arc, no angle needed. 1 − cos and 1 − sin without
+        // cancellation: dy²/(c (c + dx)) and dx²/(c (c + dy)), c the corner's distance, over
+        // one shared division.
+        let corner = corner2.sqrt();
+        let inv = 1.0 / corner;
+        let shared = inv / ((corner + dx) * (corner + dy));
+        let (sin, cos) = (dy * inv, dx * inv);
+        let one_minus_cos = dy * dy * (corner + dy) * shared;
+        let one_minus_sin = dx * dx * (corner + dx) * shared;
+        let ((low, below), (high, above)) =
+            edges_of_quadrant((sin, cos, one_minus_cos), (sin, cos, one_minus_sin), x, y);
+        return (low + high, below + above);
+    }
+    let (sin1, cos2) = (dy / rc, dx / rc);
+    let (cos1, sin2) = ((1.0 - sin1 * sin1).sqrt(), (1.0 - cos2 * cos2).sqrt());
+    let first = (sin1, cos1, sin1 * sin1 / (1.0 + cos1));
+    let second = (sin2, cos2, cos2 * cos2 / (1.0 + sin2));
+    let ((low, below), (high, above)) = edges_of_quadrant(first, second, x, y);
     let mid = Vector2::new(sin2 - sin1, cos1 - cos2) / (2.0 * rc * rc);
-    let high = Vector2::new(cube_tail(one_minus_sin2, sin2), cos2.powi(3) / 3.0) / (2.0 * dx * dx);
-    let sum = one_minus_cos1 / dy + (phi2 - phi1) / rc + one_minus_sin2 / dx;
-    (low + mid + high, sum)
+    let arc = cos2.acos() - sin1.asin();
+    (low + mid + high, below + arc / rc + above)
+}
+
+/// One part of [`quadrant`]: (∫ ŝ/|s|⁴ dA, ∫ 1/|s|³ dA).
+type Part = (Vector2<f64>, f64);
+
+/// The parts of [`quadrant`] along its two edges: below φ1 (the edge y = dy) and above φ2
+/// (the edge x = dx), given (sin, cos, 1 − cos) of φ1 and (sin, cos, 1 − sin) of φ2.
+fn edges_of_quadrant(
+    (sin1, cos1, one_minus_cos1): (f64, f64, f64),
+    (sin2, cos2, one_minus_sin2): (f64, f64, f64),
+    x: Edge,
+    y: Edge,
+) -> (Part, Part) {
+    let (half_x2, half_y2) = (0.5 * x.inv * x.inv, 0.5 * y.inv * y.inv);
+    let low = Vector2::new(sin1.powi(3) / 3.0, cube_tail(one_minus_cos1, cos1)) * half_y2;
+    let high = Vector2::new(cube_tail(one_minus_sin2, sin2), cos2.powi(3) / 3.0) * half_x2;
+    (
+        (low, one_minus_cos1 * y.inv),
+        (high, one_minus_sin2 * x.inv),
+    )
 }
 
 /// 2/3 − c + c³/3 = (1 − c)²(2 + c)/3, from 1 − c (computed without cancellation).
@@ -229,9 +266,10 @@ mod tests {
         let region = (Vector2::new(-500.0, -500.0), Vector2::new(500.0, 500.0));
         let (g, s) = outside(region, Vector2::zeros(), rc);
         assert!(g.norm() < 1e-12 && s < 1e-2 * 2.0 * PI / rc, "{g:?} {s}");
-        let (_, s_edge) = half_plane(1e-9, rc);
+        let edge = Edge { d: 1e-9, inv: 1e9 };
+        let (_, s_edge) = half_plane(edge, rc);
         assert!((s_edge - PI / rc).abs() < 1e-6, "{s_edge}");
-        let (normal, _) = half_plane(1e-9, rc);
+        let (normal, _) = half_plane(edge, rc);
         assert!((normal - 1.0 / (rc * rc)).abs() < 1e-6, "{normal}");
     }
 }
