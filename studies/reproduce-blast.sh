@@ -2,7 +2,7 @@
 # The blast model against Zohdi 2016 (docs/blast.md), claim by claim: runs every case of
 # results/reproduction/blast.md and renders the report (studies/report-blast.sh).
 # Usage (from the repository root):
-#   bash studies/reproduce-blast.sh          # full: N = 2000 as the source (about 15 min CPU)
+#   bash studies/reproduce-blast.sh          # full: N = 2000 as the source (about 3 min CPU since the single-precision default)
 #   bash studies/reproduce-blast.sh --quick  # CI size: fewer particles, shorter budgets
 # Runs land in results/reproduction/blast-runs[-quick]/<case>.json (the `magopt blast --json`
 # record of each run); the report goes to results/reproduction/blast[-quick].md.

@@ -182,13 +182,15 @@ impl ForceField {
                 }
             }
         };
-        let tail = (params.tail_correction == TailCorrection::MeanField).then(|| {
-            let moment_sin: Vec<f64> = (particles.moment.iter().zip(&particles.tilt_sin))
-                .map(|(mu, sin)| mu * sin)
-                .collect();
-            let rc = params.cutoff.diameters(d1) * d1;
-            Tail::new(rc, &particles.moment, &moment_sin)
-        });
+        let partner: Vec<Partner> = (0..n)
+            .map(|j| Partner {
+                moment: particles.moment[j],
+                moment_sin: particles.moment[j] * particles.tilt_sin[j],
+                diameter: particles.diameter[j],
+            })
+            .collect();
+        let tail = (params.tail_correction == TailCorrection::MeanField)
+            .then(|| Tail::new(params.cutoff.diameters(d1) * d1, &partner));
         Self {
             pair: 3.0 * MU0 / (4.0 * PI),
             wall_law: params.wall_law,
@@ -198,13 +200,7 @@ impl ForceField {
             geometry,
             pairs,
             tail,
-            partner: (0..n)
-                .map(|j| Partner {
-                    moment: particles.moment[j],
-                    moment_sin: particles.moment[j] * particles.tilt_sin[j],
-                    diameter: particles.diameter[j],
-                })
-                .collect(),
+            partner,
             out: vec![ParticleForce::default(); n],
         }
     }

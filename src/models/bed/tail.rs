@@ -26,6 +26,8 @@
 use nalgebra::Vector2;
 use std::f64::consts::PI;
 
+use super::list_gather::Partner;
+
 /// The uniform-density tail of one run's cut-off sums.
 #[derive(Debug, Clone)]
 pub(super) struct Tail {
@@ -39,11 +41,14 @@ pub(super) struct Tail {
 }
 
 impl Tail {
-    /// The tail beyond `cutoff` (m) of discs with these moments and moments μ sin θ.
-    pub(super) fn new(cutoff: f64, moment: &[f64], moment_sin: &[f64]) -> Self {
+    /// The tail beyond `cutoff` (m) of these discs.
+    pub(super) fn new(cutoff: f64, discs: &[Partner]) -> Self {
         Self {
             cutoff,
-            moments: (moment.iter().sum(), moment_sin.iter().sum()),
+            moments: (
+                discs.iter().map(|d| d.moment).sum(),
+                discs.iter().map(|d| d.moment_sin).sum(),
+            ),
             region: (Vector2::zeros(), Vector2::zeros()),
             density: (0.0, 0.0),
         }
@@ -59,6 +64,7 @@ impl Tail {
             .iter()
             .fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
         let hull = (high - low).x * (high - low).y;
+        // discs in one row or column span no area: widen by r_c/2 so the region stays finite
         let spacing = if hull > 0.0 {
             (2.0 * hull / (3f64.sqrt() * position.len() as f64)).sqrt()
         } else {
