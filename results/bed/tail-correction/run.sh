@@ -1,9 +1,14 @@
 # The tail-correction runs of results/bed/README.md, "Tail correction over whole cycles" (run from this folder).
+# uniform/ holds the same runs of the first, uniform-density tail (2026-12-03), made by this script at that commit.
 B=${MAGOPT:-../../../target/release/magopt}
-for n in 368 736 1472 2208; do
+for n in 368 736 1472 2208 4416 10000; do
   $B bed --particles $n --piston-speed 128mm/s --tail-correction mean-field --json > fast-N$n.json
 done
 for s in 1 2 3; do
   $B bed --particles 736 --piston-speed 8.33mm/s --seed $s --tail-correction mean-field --json > mid-N736-s$s.json
 done
 $B bed --particles 368 --tail-correction mean-field --json > std-N368.json
+# references at N = 4416 (the exact sums take about 18 minutes on 2 cores) and the list alone at 10^4
+$B bed --particles 4416 --piston-speed 128mm/s --neighbors exact --json > exact-fast-N4416.json
+$B bed --particles 4416 --piston-speed 128mm/s --json > list-fast-N4416.json
+$B bed --particles 10000 --piston-speed 128mm/s --json > list-fast-N10000.json

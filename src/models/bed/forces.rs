@@ -252,7 +252,7 @@ impl ForceField {
             }
         }
         if let Some(tail) = &mut self.tail {
-            tail.update(position);
+            tail.update(position, &self.partner, |out, f| per_particle(out, n, f));
         }
         let mut out = std::mem::take(&mut self.out);
         per_particle(&mut out, n, |i| self.particle(i, particles, state));
@@ -341,7 +341,7 @@ impl ForceField {
                 .plus(&split.far[i]),
         };
         let acc = match &self.tail {
-            Some(tail) => acc.with_tail(tail.at(state.position[i])),
+            Some(tail) => acc.with_tail(tail.at(i, state.position[i])),
             None => acc,
         };
         let (mu, m) = (particles.moment[i], particles.mass[i]);
