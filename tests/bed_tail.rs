@@ -141,6 +141,12 @@ fn the_banded_tail_keeps_the_far_push_balanced_on_a_graded_bed() {
     );
     let missing = push(&exact_f) - push(&list_f);
     assert!(list_net.norm() < 1e-9 * missing.abs());
-    assert!(tail_net.norm() < 0.2 * missing.abs(), "{tail_net:?} {missing}");
-    assert!((restored - missing).abs() < 0.1 * missing.abs(), "{restored} {missing}");
+    assert!(
+        tail_net.norm() < 0.2 * missing.abs(),
+        "{tail_net:?} {missing}"
+    );
+    assert!(
+        (restored - missing).abs() < 0.1 * missing.abs(),
+        "{restored} {missing}"
+    );
 }

@@ -190,7 +190,7 @@ impl ForceField {
             })
             .collect();
         let tail = (params.tail_correction == TailCorrection::MeanField)
-            .then(|| Tail::new(params.cutoff.diameters(d1) * d1, &partner));
+            .then(|| Tail::new(params.cutoff.diameters(d1) * d1));
         Self {
             pair: 3.0 * MU0 / (4.0 * PI),
             wall_law: params.wall_law,
@@ -341,7 +341,7 @@ impl ForceField {
                 .plus(&split.far[i]),
         };
         let acc = match &self.tail {
-            Some(tail) => acc.with_tail(tail.at(i, state.position[i])),
+            Some(tail) => acc.with_tail(tail.at(i)),
             None => acc,
         };
         let (mu, m) = (particles.moment[i], particles.mass[i]);
