@@ -90,9 +90,9 @@ pub enum Neighbors {
 pub enum TailCorrection {
     /// Nothing: the sums are truncated at r_c (the default).
     None,
-    /// The discs beyond r_c spread uniformly over the bed's region (its discs' bounding box
-    /// widened by half their mean spacing): closed-form tails of the B1 and B4 sums, added to
-    /// every disc's list sums (`verlet` and `cells` only).
+    /// The discs beyond r_c spread evenly within height bands of r_c/2 of the bed's region
+    /// (its discs' bounding box widened by half their mean spacing): closed-form tails of the
+    /// B1 and B4 sums, added to every disc's list sums (`verlet` and `cells` only).
     MeanField,
 }
 

@@ -472,8 +472,8 @@ static PARAMETERS: &[BedParam] = &[
     choice_param!(
         "tail_correction",
         "What stands for the pairs beyond the cut-off of verlet and cells: none (truncated \
-         sums) or mean-field (the discs beyond r_c spread uniformly over the bed: closed-form \
-         tails of the pair-force and plate-normal sums)",
+         sums) or mean-field (the discs beyond r_c spread evenly within height bands of r_c/2: \
+         closed-form tails of the pair-force and plate-normal sums)",
         tail_correction,
         [
             ("none", TailCorrection::None),

@@ -28,11 +28,11 @@
 //! under gravity, or under the piston), and summed over the real discs its push is no longer
 //! balanced: a net force on the bed that pairs (action = reaction) cannot exert (at N = 736
 //! and 128 mm/s, 0.26 N upwards at 15.8 N of piston force, 0.6 N downwards in the loose bed;
-//! 0.001–0.04 N with every band at every step). With it the cycle work came out 1.2–2.5 % above the exact sums;
-//! with bands within 0.43 % (results/bed/README.md, "Tail correction over whole cycles").
-//! Each disc's tail changes slowly (on the scale r_c/2 of its position and of the bed's
-//! profile): it is refreshed every few steps, from blocks of bands that grow with the
-//! distance.
+//! 0.001–0.04 N with every band at every step). With it the cycle work came out 1.2–2.5 %
+//! above the exact sums; with bands −0.4 … +1.1 %, mean +0.09 % (results/bed/README.md,
+//! "Tail correction over whole cycles"). Each disc's tail changes slowly (on the scale r_c/2
+//! of its position and of the bed's profile): it is refreshed every few steps, from blocks
+//! of bands that grow with the distance.
 
 use nalgebra::Vector2;
 use std::f64::consts::PI;
