@@ -64,6 +64,17 @@ fn forces(
     (force, normal, position)
 }
 
+/// The upward force on the discs within r_c (7.13 D) of the topmost one (what the piston
+/// holds), N.
+fn push_on_top_rows(force: &[Vector2<f64>], position: &[Vector2<f64>]) -> f64 {
+    let rc = 7.13 * BedParams::defaults().reference_diameter();
+    let top = position.iter().map(|p| p.y).fold(f64::MIN, f64::max);
+    (force.iter().zip(position))
+        .filter(|(_, p)| p.y > top - rc)
+        .map(|(f, _)| f.y)
+        .sum()
+}
+
 #[test]
 fn the_mean_field_tail_puts_back_the_pairs_beyond_the_cut_off_on_a_lattice() {
     let (exact_f, exact_n, position) = forces(Neighbors::Exact, TailCorrection::None, 0.0);
@@ -90,16 +101,7 @@ fn the_mean_field_tail_puts_back_the_pairs_beyond_the_cut_off_on_a_lattice() {
     assert!(left.abs() < 0.1 * missing.abs(), "{missing:.3e} {left:.3e}");
     assert!(rms(&tail_n) < 0.2 * rms(&list_n));
     // B1: the upward push on the discs within r_c of the top edge (what the piston holds)
-    let (rc, top) = (
-        7.13 * BedParams::defaults().reference_diameter(),
-        position.iter().map(|p| p.y).fold(f64::MIN, f64::max),
-    );
-    let push = |f: &[Vector2<f64>]| -> f64 {
-        (f.iter().zip(&position))
-            .filter(|(_, p)| p.y > top - rc)
-            .map(|(f, _)| f.y)
-            .sum()
-    };
+    let push = |f: &[Vector2<f64>]| push_on_top_rows(f, &position);
     let (missing, left) = (
         push(&list_f) - push(&exact_f),
         push(&tail_f) - push(&exact_f),
@@ -122,16 +124,7 @@ fn the_banded_tail_keeps_the_far_push_balanced_on_a_graded_bed() {
     let (list_f, _, _) = forces(Neighbors::Verlet, TailCorrection::None, grade);
     let (tail_f, _, _) = forces(Neighbors::Verlet, TailCorrection::MeanField, grade);
     let net = |f: &[Vector2<f64>]| f.iter().sum::<Vector2<f64>>();
-    let (rc, top) = (
-        7.13 * BedParams::defaults().reference_diameter(),
-        position.iter().map(|p| p.y).fold(f64::MIN, f64::max),
-    );
-    let push = |f: &[Vector2<f64>]| -> f64 {
-        (f.iter().zip(&position))
-            .filter(|(_, p)| p.y > top - rc)
-            .map(|(f, _)| f.y)
-            .sum()
-    };
+    let push = |f: &[Vector2<f64>]| push_on_top_rows(f, &position);
     let restored = push(&tail_f) - push(&list_f);
     let (list_net, tail_net) = (net(&list_f) - net(&exact_f), net(&tail_f) - net(&exact_f));
     eprintln!(
