@@ -8,6 +8,7 @@
 
 use magopt::models::bed::forces::ForceField;
 use magopt::models::bed::params::{BedParams, Neighbors, TailCorrection};
+use magopt::models::bed::protocol::Simulation;
 use magopt::models::bed::state::{Geometry, Particles, State};
 use nalgebra::Vector2;
 
@@ -142,4 +143,51 @@ fn the_banded_tail_keeps_the_far_push_balanced_on_a_graded_bed() {
         (restored - missing).abs() < 0.1 * missing.abs(),
         "{restored} {missing}"
     );
+}
+
+/// Each disc's tail is held until some disc has moved r_c/64 since it was computed. Over the
+/// first 0.3 s of a bed of 368 discs falling under gravity while the piston comes down at
+/// 128 mm/s (the fastest moves of a cycle), the held forces differ from forces computed
+/// afresh at the same state by less than 5 % of what the tail adds to them (rms over the
+/// discs, worst step; measured 3.7 %; held for 8 steps regardless of the moves, 14.8 %).
+#[test]
+fn held_tails_stay_close_to_fresh_ones() {
+    let mut params = BedParams::defaults();
+    params.tail_correction = TailCorrection::MeanField;
+    let plain = BedParams {
+        tail_correction: TailCorrection::None,
+        ..params.clone()
+    };
+    let quiet = |_: f64| {};
+    let mut sim = Simulation::new(&params, 1, &quiet);
+    let top = sim.state.piston;
+    let (mut worst, mut steps) = (0.0f64, 0);
+    sim.advance(0.3, false, &|t| top - 0.128 * t, &mut |sim, _| {
+        let fresh = |p: &BedParams| {
+            let mut field = ForceField::new(p, &sim.particles, sim.geometry);
+            field.evaluate(&sim.particles, &sim.state);
+            field.out.iter().map(|o| o.force).collect::<Vec<_>>()
+        };
+        let (now, without) = (fresh(&params), fresh(&plain));
+        let rms = |a: &[Vector2<f64>], b: &[Vector2<f64>]| {
+            let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y).norm_squared()).sum();
+            (s / a.len() as f64).sqrt()
+        };
+        let held: Vec<_> = sim.field.out.iter().map(|o| o.force).collect();
+        let r = rms(&held, &now) / rms(&now, &without);
+        if steps % 8 == 0 || r > 0.05 {
+            eprintln!(
+                "{steps} t {:.4} r {r:.3e} tail {:.3e} piston {:.4}",
+                sim.state.time,
+                rms(&now, &without),
+                sim.state.piston
+            );
+        }
+        worst = worst.max(r);
+        steps += 1;
+    })
+    .unwrap();
+    eprintln!("held against fresh tails over {steps} steps: worst rms {worst:.2e} of the tail");
+    assert!(steps > 100, "{steps}");
+    assert!(worst < 0.05, "{worst}");
 }

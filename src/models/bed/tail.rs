@@ -29,10 +29,10 @@
 //! balanced: a net force on the bed that pairs (action = reaction) cannot exert (at N = 736
 //! and 128 mm/s, 0.26 N upwards at 15.8 N of piston force, 0.6 N downwards in the loose bed;
 //! 0.001–0.04 N with every band at every step). With it the cycle work came out 1.2–2.5 %
-//! above the exact sums; with bands −0.4 … +1.1 %, mean +0.09 % (results/bed/README.md,
+//! above the exact sums; with bands −0.7 … +0.4 %, mean −0.13 % (results/bed/README.md,
 //! "Tail correction over whole cycles"). Each disc's tail changes slowly (on the scale r_c/2
-//! of its position and of the bed's profile): it is refreshed every few steps, from blocks
-//! of bands that grow with the distance.
+//! of its position and of the bed's profile): it is computed anew, from blocks of bands that
+//! grow with the distance, once some disc has moved r_c/64, and held in between.
 
 use nalgebra::Vector2;
 use std::f64::consts::PI;
@@ -56,17 +56,15 @@ pub(super) struct Tail {
     running: Vec<(f64, f64)>,
     /// Per disc: its tails (of Σ μ_j d/r⁵, of Σ μ_j sin θ_j/r³) as of the last refresh.
     held: Vec<(Vector2<f64>, f64)>,
-    /// Calls of [`Self::update`] so far.
-    calls: usize,
+    /// The discs' positions at the last refresh, m.
+    refreshed_at: Vec<Vector2<f64>>,
 }
 
-/// Calls of [`Tail::update`] between refreshes of the tails. Why 8: a disc's tail is a
-/// smooth function of its position on the scale r_c/2 (the band height; near R's edges, of
-/// the distance to them beside r_c) and of the bed's height profile, and a disc moves a few
-/// hundredths of a diameter per step (about 0.1 D in eight at 128 mm/s, r_c/2 = 3.6 D); a
-/// refresh costs about 29 edge terms per disc (refreshed every 8 steps, the tail adds 44–90 %
-/// to a cycle's time at N = 4416–10⁴).
-const REFRESH: usize = 8;
+/// How far (in cut-off radii) a disc may move before the tails are computed anew. Why
+/// r_c/64 (0.11 D at the default 7.13 D): a disc's tail varies on the scale of r_c beside
+/// the distance to R's edges and of r_c/2 (the band height) elsewhere, and held tails then
+/// stay within a few per cent of fresh ones (test `held_tails_stay_close_to_fresh_ones`).
+const MOVE_LIMIT: f64 = 1.0 / 64.0;
 
 /// Bands kept as they are on either side of a disc's own band ([`Tail::blocks_around`]).
 const FINE: usize = 4;
@@ -124,11 +122,12 @@ impl Tail {
             bands: Vec::new(),
             running: Vec::new(),
             held: Vec::new(),
-            calls: 0,
+            refreshed_at: Vec::new(),
         }
     }
 
-    /// Every [`REFRESH`] calls (and at the first, or when the discs are more or fewer):
+    /// Once some disc has moved more than [`MOVE_LIMIT`] r_c since the last refresh (and at
+    /// the first call, or when the discs are more or fewer):
     /// spreads the moments over the region of the discs at `position` (their bounding box
     /// widened by half the mean spacing a = (2/(√3 n))^½ of its number density n) band by
     /// band, and computes each disc's tails anew (`per_disc` fills a vector by index, on the
@@ -139,11 +138,11 @@ impl Tail {
         discs: &[Partner],
         per_disc: impl Fn(&mut Vec<(Vector2<f64>, f64)>, &(dyn Fn(usize) -> (Vector2<f64>, f64) + Sync)),
     ) {
-        let due = self.calls % REFRESH == 0 || self.held.len() != position.len();
-        self.calls += 1;
-        if !due || position.is_empty() {
+        if position.is_empty() || !self.due(position) {
             return;
         }
+        self.refreshed_at.clear();
+        self.refreshed_at.extend_from_slice(position);
         self.region = region_of(position, self.cutoff);
         self.fill_bands(position, discs);
         let mut held = std::mem::take(&mut self.held);
@@ -155,6 +154,15 @@ impl Tail {
             this.integral(blocks.as_slice(), at)
         });
         self.held = held;
+    }
+
+    /// Whether a refresh is due: the discs are more or fewer than at the last, or one has
+    /// moved more than [`MOVE_LIMIT`] r_c since.
+    fn due(&self, position: &[Vector2<f64>]) -> bool {
+        let limit = (MOVE_LIMIT * self.cutoff).powi(2);
+        self.refreshed_at.len() != position.len()
+            || (position.iter().zip(&self.refreshed_at))
+                .any(|(p, q)| (p - q).norm_squared() > limit)
     }
 
     /// Cuts R into bands of height about [`BAND_HEIGHT`] r_c and spreads each disc's
@@ -629,9 +637,10 @@ mod tests {
         );
     }
 
-    /// The tails are held between refreshes: every REFRESH updates they follow the discs.
+    /// The tails are held while every disc stays within MOVE_LIMIT r_c of where it was at
+    /// the last refresh, and follow the discs once one goes further.
     #[test]
-    fn tails_are_refreshed_every_refresh_updates() {
+    fn tails_are_refreshed_when_a_disc_has_moved() {
         let (mut position, discs) = graded_bed();
         let mut tail = Tail::new(0.035);
         let n = position.len();
@@ -641,11 +650,11 @@ mod tests {
         };
         tail.update(&position, &discs, fill);
         let first = tail.at(0);
-        position[0].x += 0.004;
-        for k in 1..=REFRESH {
+        let step = 0.3 * MOVE_LIMIT * 0.035;
+        for k in 1..=4 {
+            position[0].x += step;
             tail.update(&position, &discs, fill);
-            let now = tail.at(0);
-            assert_eq!(now == first, k < REFRESH, "update {k}");
+            assert_eq!(tail.at(0) == first, k < 4, "after {k} moves");
         }
     }
 
