@@ -14,7 +14,7 @@ out=${2:-results/bench/bed-far-field}
 sizes=${SIZES:-368}
 seeds=${SEEDS:-1}
 speed=${SPEED:-5.63mm/s}
-modes=${MODES:-"verlet|--neighbors verlet
+modes=${MODES:-"verlet|--neighbors verlet --tail-correction none
 tree-0.3|--neighbors tree --opening-angle 0.3
 tree-0.3-K4|--neighbors tree --opening-angle 0.3 --far-field-interval 4
 tree-0.1|--neighbors tree --opening-angle 0.1"}

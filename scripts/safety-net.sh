@@ -35,8 +35,10 @@ run_case() { # name, command…
   leaves < "$work/$name.json" > "$work/$name.txt"
 }
 
-run_case bed $bin bed --json
-run_case damper $bin damper --particles 92 --damper-time 0.5s --json --out "$work/damper"
+run_case bed $bin bed --tail-correction none --json
+run_case bed-tail $bin bed --json
+run_case damper $bin damper --particles 92 --damper-time 0.5s --tail-correction none --json \
+  --out "$work/damper"
 # the fit details moved from the JSON into damper_fits.json (absent in the recorded layout)
 if [ -f "$work/damper/damper_fits.json" ]; then
   leaves < "$work/damper/damper_fits.json" | sort -m - "$work/damper.txt" -o "$work/damper.txt"

@@ -72,7 +72,7 @@ $($quick && printf '\n**Quick mode** (CI size: N = 92 and 184, two seeds, N = 10
 |---|---|---|---|---|
 | standard 368-disc cycle, O(N²) (§5 opening; §5.1.1) | ≈ 18 h | $(m exact-N$n_std-s1 wall_time_s %.0f) s wall, exact sums, N = $n_std, 8.33 mm/s ($(m exact-N$n_std-s1 steps %.0f) steps) | exact-N$n_std-s1 | $(awk -v w="$(m exact-N$n_std-s1 wall_time_s %.6g)" -v n="$n_std" 'BEGIN { if (w == "–") print "not run"; else if (n != 368) print "other N"; else printf "%.0f times faster: the same sums; code, machine and time step differ (the source states neither its step nor its machine)", 18 * 3600 / w }') |
 | the source's Verlet lists, r_v = 11.26 D ("a couple of hours", §5.1.1) | 86 % less than 18 h | $(m sv11.26-N$n_std-s1 wall_time_s %.0f) s wall (source-verlet) | sv11.26-N$n_std-s1 | $(ratio "$(mean sv11.26-N$n_std wall_time_s)" "$(mean exact-N$n_std wall_time_s)") of the exact runs' mean wall time (source: 0.14) |
-| default cycle with lists under the source's protocol (issue 13: < 60 s on 2 cores) | – | $(m default-N$n_std wall_time_s %.1f) s wall, F_max $(m default-N$n_std max_piston_force_N) N (5.63 mm/s, r_c = 7.13 D, r_v = 8 D) | default-N$n_std | $(awk -v t="$(m default-N$n_std wall_time_s %.1f)" 'BEGIN { if (t == "–") print "not run"; else if (t < 60) print "under 60 s"; else print "over 60 s on this loaded machine" }') |
+| cycle with truncated lists (\`--tail-correction none\`, the default until 2026-12-04) under the source's protocol (issue 13: < 60 s on 2 cores) | – | $(m default-N$n_std wall_time_s %.1f) s wall, F_max $(m default-N$n_std max_piston_force_N) N (5.63 mm/s, r_c = 7.13 D, r_v = 8 D) | default-N$n_std | $(awk -v t="$(m default-N$n_std wall_time_s %.1f)" 'BEGIN { if (t == "–") print "not run"; else if (t < 60) print "under 60 s"; else print "over 60 s on this loaded machine" }') |
 
 ## Table 3.1: mean inter-particle distance D̂ over the cycle (exact sums, 8.33 mm/s, seed 1)
 
@@ -372,8 +372,9 @@ fractions of the counted Voronoi cells, docs/analysis.md).
 
 The source gives bi-exponential fits A e^{λ1 R} + B e^{λ2 R} (Table 4.5); their values at R are
 the source column. Command: \`magopt bed --preset bidisperse --particles $n_bi --aspect-ratio a
---mixing-ratio R --piston-speed 1mm/s --seed s --json\` (case bi-a<a>-R<R>-s<s>; R = 0 is the
-same all-big bed for every a). The spec's interleaving rule (protocol step 1: for R < ½ every
+--mixing-ratio R --piston-speed 1mm/s --seed s --tail-correction none --json\` (case
+bi-a<a>-R<R>-s<s>; R = 0 is the same all-big bed for every a; sums truncated at r_c = 7.13 D1,
+as before 2026-12-04, when the mean-field tail became the default). The spec's interleaving rule (protocol step 1: for R < ½ every
 ⌊1/R⌋-th disc is small, for R > ½ every ⌊1/(1 − R)⌋-th is big) realizes some R only
 approximately: R = 0.4, 0.5 and 0.6 all make every second disc small (0.5); R = 0.4 and 0.5
 are the same bed, R = 0.6 the other parity. The realized fraction (\`small_fraction\`) is listed,
@@ -488,7 +489,7 @@ walls, no gravity) as arrows normalized per species (Fig. 4.23) and |F − F̄_s
 (Eq. (4.35)) as colours (Fig. 4.24), and reads both by eye: "no preferred direction", "no
 pattern on the coloring", hence no force chains. magopt draws the same maps (\`magopt bed
 --preset bidisperse --particles $n_forces --aspect-ratio 0.6 --mixing-ratio R --piston-speed
-1mm/s --out DIR\`, then \`magopt analyze DIR/snapshots/max-compression.parquet --out
+1mm/s --tail-correction none --out DIR\`, then \`magopt analyze DIR/snapshots/max-compression.parquet --out
 DIR/analysis\`: force_vectors.png, fluctuations.png) and puts the two readings on a scale over
 the counted Voronoi cells: S = |⟨e^{2iθ}⟩| of the force directions (0 isotropic, 1 all along
 one axis) and Pearson's r of Eq. (4.35) between Voronoi neighbours (0: no spatial pattern). A

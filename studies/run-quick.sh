@@ -29,5 +29,5 @@ for study in studies/quick/structure-*.toml; do
 done
 cargo run --release --locked --example structure_figures -- results/structure/quick 100 22.5 3
 rm -rf results/structure/quick/damper-fit
-"$bin" damper --particles 92 --piston-mass 200g --out results/structure/quick/damper-fit
+"$bin" damper --particles 92 --piston-mass 200g --tail-correction none --out results/structure/quick/damper-fit
 rm -rf results/structure/quick/damper-fit/runs

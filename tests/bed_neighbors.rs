@@ -4,7 +4,7 @@
 //! until a disc has moved r_s.
 
 use magopt::models::bed::forces::{pair_force, ForceField};
-use magopt::models::bed::params::{BedParams, Neighbors, Reach};
+use magopt::models::bed::params::{BedParams, Neighbors, Reach, TailCorrection};
 use magopt::models::bed::state::{Geometry, Particles, State};
 use nalgebra::Vector2;
 
@@ -24,8 +24,10 @@ fn far_from_walls(offsets: [Vector2<f64>; 3]) -> State {
     }
 }
 
+/// The lists' truncated sums (no tail: the comparison is of the pairs each list keeps).
 fn field(neighbors: Neighbors, cutoff: f64, list_radius: f64) -> (ForceField, Particles) {
     let mut params = BedParams::defaults();
+    params.tail_correction = TailCorrection::None;
     params.gravity = 0.0;
     params.neighbors = neighbors;
     params.cutoff = Reach::Diameters(cutoff);

@@ -7,6 +7,7 @@
 //! (N × pairs_per_particle / 2 per step: the count LAMMPS with Newton's third law on
 //! evaluates, bench/lammps/bed-pairs.sh); `kernel_pair_terms_per_s`, the ordered list entries
 //! the kernel evaluated per second; and per-CPU-second rates (per core on a loaded machine).
+//! A method printed with `+t` has the mean-field tail beyond r_c (the default with lists).
 
 use serde_json::json;
 
@@ -54,6 +55,7 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                     for (name, value) in [
                         ("list_radius", &args.list_radius),
                         ("time_step_factor", &args.time_step_factor),
+                        ("tail_correction", &args.tail_correction),
                     ] {
                         if let Some(v) = value {
                             settings.push((name, v.clone()));
@@ -81,6 +83,7 @@ fn row(
     let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
     let cpu_s = cpu_seconds() - cpu_start;
     let n = params.particle_count();
+    let tail = params.tail_correction.applies(params.neighbors);
     let (method, k) = (
         format!("{:?}", params.neighbors).to_lowercase(),
         params.far_field_interval,
@@ -91,7 +94,7 @@ fn row(
     let pair_evaluations = 0.5 * work.pairs_within_cutoff as f64;
     println!(
         "{n:>7} {:>9} {k:>3} {threads:>7} {:>9} {:>10.2} {:>10.2} {:>16.3e} {:>8.2} {:>10.3e} {:>11.3} {:>13.1}{}",
-        method,
+        if tail { format!("{method}+t") } else { method.clone() },
         o.steps,
         o.wall_time_s,
         1e6 * o.wall_time_s / o.steps as f64,
@@ -109,6 +112,7 @@ fn row(
         "particles": n,
         "neighbors": method,
         "far_field_interval": k,
+        "tail_correction": tail,
         "cutoff_D": params.cutoff.diameters(params.reference_diameter()),
         "list_radius_D": params.list_radius.diameters(params.reference_diameter()),
         "cell_width_D": params.cell().0 / params.reference_diameter(),

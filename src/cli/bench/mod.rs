@@ -92,6 +92,10 @@ pub struct BenchArgs {
     /// bed: time-step factor (Δt = factor/ω_max) [default: the model's].
     #[arg(long)]
     time_step_factor: Option<String>,
+    /// bed: the tail beyond the cut-off (auto, none, mean-field) [default: the model's, auto:
+    /// mean-field with verlet and cells].
+    #[arg(long)]
+    tail_correction: Option<String>,
     /// blast: simulated time of the interacting example (s, ms; bare number: s).
     #[arg(long, default_value = "1s")]
     interacting_duration: String,

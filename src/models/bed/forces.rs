@@ -12,7 +12,7 @@ use super::exact::ExactSums;
 use super::far_field::FarField;
 use super::list_gather::{pair_sums, Partner};
 use super::list_pairs::HalfList;
-use super::params::{BedParams, Neighbors, TailCorrection, WallLaw};
+use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
 use super::tail::Tail;
 use super::walls::{Walls, WALL_NORMALS};
@@ -189,7 +189,9 @@ impl ForceField {
                 diameter: particles.diameter[j],
             })
             .collect();
-        let tail = (params.tail_correction == TailCorrection::MeanField)
+        let tail = params
+            .tail_correction
+            .applies(params.neighbors)
             .then(|| Tail::new(params.cutoff.diameters(d1) * d1));
         Self {
             pair: 3.0 * MU0 / (4.0 * PI),

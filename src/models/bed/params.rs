@@ -88,12 +88,27 @@ pub enum Neighbors {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TailCorrection {
-    /// Nothing: the sums are truncated at r_c (the default).
+    /// `mean-field` where the sums are cut off sharply (`verlet`, `cells`), `none` otherwise
+    /// (the default since 2026-12-04; before it, `none`).
+    Auto,
+    /// Nothing: the sums are truncated at r_c.
     None,
     /// The discs beyond r_c spread evenly within height bands of r_c/2 of the bed's region
     /// (its discs' bounding box widened by half their mean spacing): closed-form tails of the
     /// B1 and B4 sums, added to every disc's list sums (`verlet` and `cells` only).
     MeanField,
+}
+
+impl TailCorrection {
+    /// Whether the mean-field tail is added to the list sums of `neighbors`.
+    pub fn applies(self, neighbors: Neighbors) -> bool {
+        let cut = matches!(neighbors, Neighbors::Verlet | Neighbors::Cells);
+        match self {
+            Self::Auto => cut,
+            Self::None => false,
+            Self::MeanField => true,
+        }
+    }
 }
 
 /// How dry friction is integrated (see `integrator`).
@@ -243,7 +258,8 @@ pub struct BedParams {
     /// Near cut-off r_s in units of D_1 of the multiple time stepping and of `tree` (3;
     /// 0 < r_s, and r_s < r_c with `verlet`).
     pub near_cutoff: Reach,
-    /// What stands for the pairs beyond r_c of `verlet` and `cells` (none by default).
+    /// What stands for the pairs beyond r_c of `verlet` and `cells` (auto: the mean-field
+    /// tail with them, nothing with the other neighbour modes).
     pub tail_correction: TailCorrection,
     /// Opening angle θ of `tree`: a group of discs acts through its multipoles when its extent
     /// is below θ times its gap to the summing leaf (0.5; 0 sums every pair exactly).
@@ -314,7 +330,7 @@ impl BedParams {
             rebuild_skin: Reach::Diameters(4.13),
             far_field_interval: 1,
             near_cutoff: Reach::Diameters(3.0),
-            tail_correction: TailCorrection::None,
+            tail_correction: TailCorrection::Auto,
             opening_angle: 0.5,
             time_step_factor: 0.2,
             max_time_step: 1e-3,
@@ -431,5 +447,27 @@ impl BedParams {
         let d1 = self.reference_diameter();
         self.wall_strength
             .unwrap_or(2.0 * self.moment(d1) / d1.sqrt())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `auto` adds the tail exactly where the sums have a sharp cut-off; `mean-field` is
+    /// refused elsewhere by validation (tests/inputs/bad/study-bed-tail-without-cutoff.toml).
+    #[test]
+    fn the_automatic_tail_goes_with_the_cut_off_lists_only() {
+        use Neighbors::*;
+        for neighbors in [Exact, Cells, Verlet, SourceVerlet, Tree] {
+            let cut = matches!(neighbors, Verlet | Cells);
+            assert_eq!(
+                TailCorrection::Auto.applies(neighbors),
+                cut,
+                "{neighbors:?}"
+            );
+            assert!(!TailCorrection::None.applies(neighbors));
+        }
+        assert_eq!(BedParams::defaults().tail_correction, TailCorrection::Auto);
     }
 }

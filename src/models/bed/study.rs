@@ -471,11 +471,13 @@ static PARAMETERS: &[BedParam] = &[
     },
     choice_param!(
         "tail_correction",
-        "What stands for the pairs beyond the cut-off of verlet and cells: none (truncated \
-         sums) or mean-field (the discs beyond r_c spread evenly within height bands of r_c/2: \
+        "What stands for the pairs beyond the cut-off of verlet and cells: auto (mean-field with \
+         verlet and cells, none with the other neighbour modes), none (truncated sums) or \
+         mean-field (the discs beyond r_c spread evenly within height bands of r_c/2: \
          closed-form tails of the pair-force and plate-normal sums)",
         tail_correction,
         [
+            ("auto", TailCorrection::Auto),
             ("none", TailCorrection::None),
             ("mean-field", TailCorrection::MeanField)
         ]
