@@ -19,3 +19,6 @@ for s in 2 3 4 5; do
   $B bed --particles 368 --seed $s --tail-correction mean-field --json > std-seeds/tail-s$s.json
   $B bed --particles 368 --seed $s --tail-correction none --json > std-seeds/list-s$s.json
 done
+# the reference at N = 10^4 (no exact run: hours): the quadtree, every pair every step, theta 0.3 (33.5 min on 2 cores)
+mkdir -p tree
+$B bed --particles 10000 --piston-speed 128mm/s --neighbors tree --opening-angle 0.3 --json > tree/tree0.3-fast-N10000.json
