@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The default tail on bi-disperse beds against exact sums and the truncated list (results/bed/README.md,
+# "Tail correction over whole cycles"); run from this folder. MAGOPT: the binary (default ../../../../target/release/magopt).
+B=${MAGOPT:-../../../../target/release/magopt}
+# run NAME ARGS...: exact sums, the default (tail) and the truncated list of one bed
+run() {
+  local c=$1; shift
+  $B bed "$@" --neighbors exact --json > exact-$c.json
+  $B bed "$@" --json > tail-$c.json
+  $B bed "$@" --tail-correction none --json > list-$c.json
+}
+# quick size: N = 100 (the preset scaled by sqrt(1/4)), 22.5 mm/s
+for a in 0.5 0.75; do for r in 0.5 1; do for s in 1 2 3; do
+  run a$a-R$r-s$s --preset bidisperse --particles 100 --aspect-ratio $a --mixing-ratio $r --piston-speed 22.5mm/s --seed $s
+done; done; done
+# the preset's own size, N = 400, a = 0.5, 22.5 mm/s (R = 0 with 8 seeds)
+for s in 1 2 3 4 5 6 7 8; do
+  run n400-a0.5-R0-s$s --preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0 --piston-speed 22.5mm/s --seed $s
+done
+for s in 1 2 3; do
+  run n400-a0.5-R0.5-s$s --preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0.5 --piston-speed 22.5mm/s --seed $s
+done
