@@ -22,3 +22,8 @@ done
 # the reference at N = 10^4 (no exact run: hours): the quadtree, every pair every step, theta 0.3 (33.5 min on 2 cores)
 mkdir -p tree
 $B bed --particles 10000 --piston-speed 128mm/s --neighbors tree --opening-angle 0.3 --json > tree/tree0.3-fast-N10000.json
+# the damper (N = 368, 200 g piston, seed 1) with exact sums, the default tail and the truncated list
+mkdir -p damper
+$B damper --particles 368 --piston-mass 200g --neighbors exact --json --out /tmp/damper-exact > damper/exact.json
+$B damper --particles 368 --piston-mass 200g --json --out /tmp/damper-tail > damper/tail.json
+$B damper --particles 368 --piston-mass 200g --tail-correction none --json --out /tmp/damper-list > damper/list.json
