@@ -20,3 +20,13 @@ done
 for s in 1 2 3; do
   run n400-a0.5-R0.5-s$s --preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0.5 --piston-speed 22.5mm/s --seed $s
 done
+# the F_max offset at N = 400, R = 0: other approximations and a perturbation of exact sums
+for s in 1 2 3 4 5 6 7 8; do
+  f=(--preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0 --piston-speed 22.5mm/s --seed $s)
+  $B bed "${f[@]}" --neighbors tree --opening-angle 0.3 --json > tree0.3-n400-a0.5-R0-s$s.json
+  $B bed "${f[@]}" --neighbors exact --time-step-factor 0.2001 --json > exact-dt0.2001-n400-a0.5-R0-s$s.json
+  [ $s -le 4 ] && $B bed "${f[@]}" --neighbors tree --opening-angle 0.1 --json > tree0.1-n400-a0.5-R0-s$s.json
+done
+# a list whose cut-off spans the cell: exact sums' answer (seed 1)
+$B bed --preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0 --piston-speed 22.5mm/s --seed 1 \
+  --neighbors verlet --cutoff 500 --list-radius 501 --tail-correction none --json > list-cutoff500-n400-a0.5-R0-s1.json
