@@ -99,12 +99,19 @@ pub enum TailCorrection {
     MeanField,
 }
 
+impl Neighbors {
+    /// Whether the pair sums stop sharply at r_c (`verlet`, `cells`): the modes a tail
+    /// beyond r_c stands for the rest of.
+    pub fn cuts_sharply(self) -> bool {
+        matches!(self, Self::Verlet | Self::Cells)
+    }
+}
+
 impl TailCorrection {
     /// Whether the mean-field tail is added to the list sums of `neighbors`.
     pub fn applies(self, neighbors: Neighbors) -> bool {
-        let cut = matches!(neighbors, Neighbors::Verlet | Neighbors::Cells);
         match self {
-            Self::Auto => cut,
+            Self::Auto => neighbors.cuts_sharply(),
             Self::None => false,
             Self::MeanField => true,
         }
@@ -459,11 +466,17 @@ mod tests {
     #[test]
     fn the_automatic_tail_goes_with_the_cut_off_lists_only() {
         use Neighbors::*;
-        for neighbors in [Exact, Cells, Verlet, SourceVerlet, Tree] {
-            let cut = matches!(neighbors, Verlet | Cells);
+        let cut = [
+            (Exact, false),
+            (Cells, true),
+            (Verlet, true),
+            (SourceVerlet, false),
+            (Tree, false),
+        ];
+        for (neighbors, sharp) in cut {
             assert_eq!(
                 TailCorrection::Auto.applies(neighbors),
-                cut,
+                sharp,
                 "{neighbors:?}"
             );
             assert!(!TailCorrection::None.applies(neighbors));

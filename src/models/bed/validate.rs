@@ -38,16 +38,13 @@ impl BedParams {
                 )));
             }
         }
-        let uncut = match self.neighbors {
-            Neighbors::Exact => Some("exact"),
-            Neighbors::SourceVerlet => Some("source-verlet"),
-            Neighbors::Tree => Some("tree"),
-            Neighbors::Verlet | Neighbors::Cells => None,
-        };
-        if let (TailCorrection::MeanField, Some(name)) = (self.tail_correction, uncut) {
+        if self.tail_correction == TailCorrection::MeanField && !self.neighbors.cuts_sharply() {
+            // the mode as the input spells it (serde's kebab-case name)
+            let name = serde_json::to_value(self.neighbors).unwrap_or_default();
             return Err(Error::input(format!(
-                "tail_correction mean-field with neighbors = {name}: the tail stands for the \
-                 pairs beyond a sharp cut-off, so it needs neighbors = verlet or cells"
+                "tail_correction mean-field with neighbors = {}: the tail stands for the \
+                 pairs beyond a sharp cut-off, so it needs neighbors = verlet or cells",
+                name.as_str().unwrap_or_default()
             )));
         }
         self.validate_species()?;
