@@ -22,7 +22,8 @@ use super::pairs::{PairLaw, Wrench};
 /// Three components in four lanes.
 type V = [__m256d; 3];
 
-/// The wrenches on the first particle of four bonded pairs (i, j, area at bonding).
+/// The wrenches on the first particle of four bonded pairs (i, j, area at bonding), written
+/// into `out` (in place: a returned array cost a library copy per call).
 ///
 /// # Safety
 /// Only where the processor has AVX.
@@ -32,7 +33,8 @@ pub unsafe fn four_wrenches(
     cloud: &Cloud,
     dt: f64,
     pairs: &[(u32, u32, f64); 4],
-) -> [Wrench; 4] {
+    out: &mut [Wrench],
+) {
     // the 18 coordinates of each pair's two bodies, one row per coordinate
     let mut rows = [[0.0; 4]; 19];
     for (k, &(i, j, area)) in pairs.iter().enumerate() {
@@ -60,12 +62,10 @@ pub unsafe fn four_wrenches(
         // SAFETY: each row holds 4 f64.
         unsafe { _mm256_storeu_pd(row.as_mut_ptr(), *lanes) };
     }
-    let mut out = [(Vector3::zeros(), Vector3::zeros()); 4];
-    for (k, w) in out.iter_mut().enumerate() {
+    for (k, w) in out.iter_mut().enumerate().take(4) {
         w.0 = Vector3::new(values[0][k], values[1][k], values[2][k]);
         w.1 = Vector3::new(values[3][k], values[4][k], values[5][k]);
     }
-    out
 }
 
 /// [`PairLaw::contact`] with a bond of area `bond_area`, on four lanes; the bodies are
