@@ -33,7 +33,7 @@ pub unsafe fn four_wrenches(
     cloud: &Cloud,
     dt: f64,
     pairs: &[(u32, u32, f64); 4],
-    out: &mut [Wrench],
+    out: &mut [Wrench; 4],
 ) {
     // the 18 coordinates of each pair's two bodies, one row per coordinate
     let mut rows = [[0.0; 4]; 19];
@@ -62,7 +62,7 @@ pub unsafe fn four_wrenches(
         // SAFETY: each row holds 4 f64.
         unsafe { _mm256_storeu_pd(row.as_mut_ptr(), *lanes) };
     }
-    for (k, w) in out.iter_mut().enumerate().take(4) {
+    for (k, w) in out.iter_mut().enumerate() {
         w.0 = Vector3::new(values[0][k], values[1][k], values[2][k]);
         w.1 = Vector3::new(values[3][k], values[4][k], values[5][k]);
     }

@@ -80,6 +80,7 @@ impl BondIndex {
                 if avx {
                     for (out, pairs) in out.chunks_exact_mut(4).zip(pairs.chunks_exact(4)) {
                         let four = pairs.try_into().expect("chunks of four");
+                        let out = out.try_into().expect("chunks of four");
                         // SAFETY: `avx` is true only where the processor has AVX.
                         unsafe { four_wrenches(law, cloud, dt, four, out) };
                         done += 4;
