@@ -7,7 +7,9 @@
 //! with every rounding used), so `PairLaw::contact` gives j exactly −F and the same moment
 //! (lever·(−n)) × (−t) = (lever·n) × t. Each particle then adds its bonds' shares in its
 //! list's ascending order, the order of the per-particle evaluation this replaces, so the
-//! forces keep their bits.
+//! forces keep their bits. The pairs sit in the order they formed: a pair's wrench does not
+//! depend on where it sits (the four lanes give the scalar law's bits), so no bit depends on
+//! that order, and a new bond costs an insertion, not a re-index of every bond.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -20,47 +22,71 @@ use super::pairs::{Body, PairLaw, Wrench};
 /// Pairs per rayon task.
 const CHUNK: usize = 256;
 
-/// The bonded pairs once each (i < j), where each particle's bonds find them, and their
-/// wrenches at the last evaluation.
+/// Each particle's bonds, and the bonded pairs once each with their wrenches at the last
+/// evaluation. Bonds are permanent, so new ones are appended: a pair's index never changes.
 #[derive(Debug, Clone, Default)]
 pub struct BondIndex {
-    /// (i, j, contact area at bonding in m²), i < j, in the order of i's ascending list.
+    /// Each particle's bonds, ascending by partner.
+    lists: Vec<Vec<Bond>>,
+    /// (i, j, contact area at bonding in m²), i < j, in the order the bonds formed.
     pairs: Vec<(u32, u32, f64)>,
-    /// For each particle, the pair index of each entry of its bond list.
-    pair_of: Vec<Vec<u32>>,
     /// Wrench on the pair's first particle, N and N·m.
     wrenches: Vec<Wrench>,
-    /// Scratch of `index`: each particle's first upper pair, and its upper pairs met so far.
-    first_upper: Vec<u32>,
-    cursor: Vec<u32>,
+}
+
+/// One entry of a particle's bond list: the partner and the pair's index.
+#[derive(Debug, Clone, Copy)]
+struct Bond {
+    partner: u32,
+    pair: u32,
 }
 
 impl BondIndex {
-    /// Re-indexes the bond lists (each ascending, j in i's list iff i in j's). In one pass:
-    /// the pairs (j, i) that i meets below itself are j's upper pairs, numbered from j's
-    /// first in ascending order of i, so a cursor per particle finds them.
-    pub fn index(&mut self, lists: &[Vec<(u32, f64)>]) {
-        self.pairs.clear();
-        self.pair_of.resize(lists.len(), Vec::new());
-        self.first_upper.clear();
-        self.cursor.clear();
-        self.cursor.resize(lists.len(), 0);
-        for (i, (list, slots)) in lists.iter().zip(&mut self.pair_of).enumerate() {
-            self.first_upper.push(self.pairs.len() as u32);
-            slots.clear();
-            for &(j, area) in list {
-                let j_at = j as usize;
-                slots.push(if j_at < i {
-                    self.cursor[j_at] += 1;
-                    self.first_upper[j_at] + self.cursor[j_at] - 1
-                } else {
-                    self.pairs.push((i as u32, j, area));
-                    self.pairs.len() as u32 - 1
-                });
-            }
+    /// No bonds among `n` particles.
+    pub fn new(n: usize) -> Self {
+        Self {
+            lists: vec![Vec::new(); n],
+            ..Self::default()
         }
-        self.wrenches
-            .resize(self.pairs.len(), (Vector3::zeros(), Vector3::zeros()));
+    }
+
+    /// Number of bonded pairs.
+    pub fn count(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Particle i's bonded partners, ascending.
+    pub fn partners(&self, i: usize) -> impl Iterator<Item = u32> + '_ {
+        self.lists[i].iter().map(|b| b.partner)
+    }
+
+    /// Bonded pairs (i < j), ascending by i, then j.
+    pub fn bonded_pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.lists.iter().enumerate().flat_map(|(i, list)| {
+            list.iter()
+                .map(move |bond| (i, bond.partner as usize))
+                .filter(|(i, j)| i < j)
+        })
+    }
+
+    /// Bonds i and j (i < j, not bonded yet) with the contact area `area`, m². Each list
+    /// stays ascending (an insertion: a list holds some 35 bonds at most).
+    pub fn add(&mut self, i: usize, j: usize, area: f64) {
+        debug_assert!(i < j && self.partners(i).all(|b| b as usize != j));
+        let pair = self.pairs.len() as u32;
+        self.pairs.push((i as u32, j as u32, area));
+        self.wrenches.push((Vector3::zeros(), Vector3::zeros()));
+        for (a, b) in [(i, j), (j, i)] {
+            let list = &mut self.lists[a];
+            let at = list.partition_point(|bond| (bond.partner as usize) < b);
+            list.insert(
+                at,
+                Bond {
+                    partner: b as u32,
+                    pair,
+                },
+            );
+        }
     }
 
     /// Every bonded pair's wrench on its first particle at the state `cloud`: four pairs
@@ -94,15 +120,16 @@ impl BondIndex {
             });
     }
 
-    /// The wrench on particle i from the bond at entry k of its list, whose partner is j.
-    #[inline]
-    pub fn on(&self, i: usize, k: usize, j: u32) -> Wrench {
-        let (force, moment) = self.wrenches[self.pair_of[i][k] as usize];
-        if (j as usize) > i {
-            (force, moment)
-        } else {
-            (-force, moment)
-        }
+    /// The wrenches on particle i from its bonds, in its list's (ascending) order.
+    pub fn wrenches_on(&self, i: usize) -> impl Iterator<Item = Wrench> + '_ {
+        self.lists[i].iter().map(move |bond| {
+            let (force, moment) = self.wrenches[bond.pair as usize];
+            if (bond.partner as usize) > i {
+                (force, moment)
+            } else {
+                (-force, moment)
+            }
+        })
     }
 }
 
@@ -155,20 +182,67 @@ mod tests {
             vec![(0, 2.0 * area), (3, 4.0 * area)],
             vec![(1, 3.0 * area), (2, 4.0 * area)],
         ];
-        let mut index = BondIndex::default();
-        index.index(&lists);
-        assert_eq!(index.pairs.len(), 4);
+        let index = &mut indexed(&lists);
+        assert_eq!(index.count(), 4);
         index.evaluate(&law, &cloud, 1e-4);
         for (i, list) in lists.iter().enumerate() {
-            for (k, &(j, a)) in list.iter().enumerate() {
-                let body = |p: usize| Body {
-                    position: cloud.positions[p],
-                    velocity: cloud.velocities[p],
-                    spin: cloud.spins[p],
-                };
-                let own = law.contact(&body(i), &body(j as usize), Some(a), 1e-4);
+            let shares: Vec<Wrench> = index.wrenches_on(i).collect();
+            assert_eq!(shares.len(), list.len());
+            for (&(j, a), share) in list.iter().zip(shares) {
+                let own = law.contact(&body(&cloud, i as u32), &body(&cloud, j), Some(a), 1e-4);
                 assert_ne!(own.0, Vector3::zeros(), "{i}–{j} acts");
-                assert_eq!(index.on(i, k, j), own, "{i}–{j}");
+                assert_eq!(share, own, "{i}–{j}");
+            }
+        }
+    }
+
+    /// An index holding the bonds of `lists` (symmetric, each ascending), added from
+    /// their lower particle's side in ascending order.
+    fn indexed(lists: &[Vec<(u32, f64)>]) -> BondIndex {
+        let mut index = BondIndex::new(lists.len());
+        for (i, list) in lists.iter().enumerate() {
+            for &(j, area) in list.iter().filter(|&&(j, _)| j as usize > i) {
+                index.add(i, j as usize, area);
+            }
+        }
+        index
+    }
+
+    /// Bonds added in a random order, with particles bonded to none, to lower ones only and
+    /// to upper ones only: every list ascends, holds each partner once, and each entry
+    /// points at its pair, held once as (lower, upper, area).
+    #[test]
+    fn every_entry_finds_its_pair_once() {
+        use rand::seq::SliceRandom;
+        use rand::RngExt;
+        let mut rng = crate::rng::run_stream(5, crate::rng::Purpose::Positions);
+        let n = 300;
+        let mut pairs = Vec::new();
+        for i in 0..n {
+            for j in i + 1..n {
+                if (i % 7 != 3 && j % 11 != 5) && rng.random::<f64>() < 0.05 {
+                    pairs.push((i, j, (i * n + j) as f64));
+                }
+            }
+        }
+        pairs.shuffle(&mut rng);
+        let mut index = BondIndex::new(n);
+        for &(i, j, area) in &pairs {
+            index.add(i, j, area);
+        }
+        assert_eq!(index.count(), pairs.len());
+        for (i, list) in index.lists.iter().enumerate() {
+            let mut expected: Vec<u32> = pairs
+                .iter()
+                .filter_map(|&(a, b, _)| (a == i).then_some(b).or((b == i).then_some(a)))
+                .map(|p| p as u32)
+                .collect();
+            expected.sort_unstable();
+            assert_eq!(index.partners(i).collect::<Vec<_>>(), expected, "{i}");
+            for bond in list {
+                let (a, b) = (i.min(bond.partner as usize), i.max(bond.partner as usize));
+                let pair = index.pairs[bond.pair as usize];
+                assert_eq!(pair, (a as u32, b as u32, (a * n + b) as f64));
             }
         }
     }
@@ -240,8 +314,7 @@ mod tests {
             params.contact.bond_exponent = exponents.1;
             params.interactions.rotation = rotation;
             let law = PairLaw::new(&params);
-            let mut index = BondIndex::default();
-            index.index(&lists);
+            let mut index = indexed(&lists);
             index.evaluate_with(&law, &cloud, 1e-4, false);
             let scalar = index.wrenches.clone();
             index.evaluate_with(&law, &cloud, 1e-4, crate::numerics::has_avx());

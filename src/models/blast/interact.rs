@@ -34,12 +34,12 @@ pub struct Interactor {
     all_pairs: Option<AllPairs>,
     /// Near-field forces from the tree or the all-pairs kernel, per particle, N.
     near_forces: Vec<Vector3<f64>>,
-    /// Bonded partners of each particle with the contact area at bonding, ascending.
-    bonds: Vec<Vec<(u32, f64)>>,
+    /// Scratch of `form_bonds`: each particle's new partners and contact areas, ascending.
+    fresh: Vec<Vec<(u32, f64)>>,
     /// Each particle's contact-list partners that are not bonded to it, ascending: kept
     /// with the list and the bonds, so the force and bond searches skip no bonded partner.
     unbonded: Vec<Vec<u32>>,
-    /// The bonded pairs once each, with their wrenches.
+    /// Each particle's bonds, and the bonded pairs once each with their wrenches.
     bond_index: BondIndex,
     radii: Vec<f64>,
     near_radii: Vec<f64>,
@@ -65,9 +65,9 @@ impl Interactor {
             tree: (near_field && theta > 0.0).then(|| (Octree::default(), theta)),
             all_pairs,
             near_forces: vec![Vector3::zeros(); n],
-            bonds: vec![Vec::new(); n],
+            fresh: vec![Vec::new(); n],
             unbonded: vec![Vec::new(); n],
-            bond_index: BondIndex::default(),
+            bond_index: BondIndex::new(n),
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
         }
@@ -88,16 +88,12 @@ impl Interactor {
 
     /// Number of bonded pairs.
     pub fn bond_count(&self) -> usize {
-        self.bonds.iter().map(Vec::len).sum::<usize>() / 2
+        self.bond_index.count()
     }
 
     /// Bonded pairs (i < j).
     pub fn bonded_pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        self.bonds.iter().enumerate().flat_map(|(i, list)| {
-            list.iter()
-                .map(move |&(j, _)| (i, j as usize))
-                .filter(|(i, j)| i < j)
-        })
+        self.bond_index.bonded_pairs()
     }
 
     /// Forces (N) and moments (N·m) on every particle at the state (positions, velocities,
@@ -130,15 +126,14 @@ impl Interactor {
         if !self.contacts.update(&cloud.positions, &self.radii) {
             return;
         }
-        let contacts = &self.contacts;
+        let (contacts, bonds) = (&self.contacts, &self.bond_index);
         self.unbonded
             .par_iter_mut()
-            .zip(&self.bonds)
             .enumerate()
             .with_min_len(CHUNK)
-            .for_each(|(i, (row, bonds))| {
+            .for_each(|(i, row)| {
                 row.clear();
-                let mut bonded = bonds.iter().map(|&(b, _)| b).peekable();
+                let mut bonded = bonds.partners(i).peekable();
                 for &j in contacts.of(i) {
                     while bonded.next_if(|&b| b < j).is_some() {}
                     if bonded.peek() != Some(&j) {
@@ -198,8 +193,7 @@ impl Interactor {
                 moment += m;
             }
         }
-        for (k, &(j, _)) in self.bonds[i].iter().enumerate() {
-            let (f, m) = self.bond_index.on(i, k, j);
+        for (f, m) in self.bond_index.wrenches_on(i) {
             force += f;
             moment += m;
         }
@@ -239,8 +233,10 @@ impl Interactor {
     }
 
     /// Bonds every touching pair whose overlap strain has reached ε* (C7); bonds are
-    /// permanent. Returns the number of new bonds. Each particle adds only to its own list,
-    /// so the particles are searched in parallel with the same lists as one by one.
+    /// permanent. Returns the number of new bonds. Each particle finds its new partners in
+    /// parallel (each pair from both sides: the strain is symmetric); the pairs are then
+    /// added from their lower particle's side, in ascending order of both, so the bonds'
+    /// order does not depend on the thread count.
     pub fn form_bonds(&mut self, cloud: &Cloud) -> usize {
         if !self.law.flags.bonding {
             return 0;
@@ -251,14 +247,14 @@ impl Interactor {
         // strain ≥ ε* needs dist ≤ 2R(1 − ε*): pairs clearly farther skip the square root
         let reach = (2.0 * radius * (1.0 - threshold)).max(0.0);
         let positions = &cloud.positions;
-        let formed: usize = self
-            .bonds
+        let found = self
+            .fresh
             .par_iter_mut()
             .zip(&mut self.unbonded)
             .enumerate()
             .with_min_len(CHUNK)
-            .map(|(i, (list, unbonded))| {
-                let before = list.len();
+            .map(|(i, (fresh, unbonded))| {
+                fresh.clear();
                 for &j in unbonded.iter() {
                     let d = positions[j as usize] - positions[i];
                     if clearly_beyond(&d, reach) {
@@ -267,22 +263,27 @@ impl Interactor {
                     let dist = d.norm();
                     let strain = (2.0 * radius - dist) / (2.0 * radius);
                     if strain >= threshold {
-                        list.push((j, contact_area(radius, dist)));
+                        fresh.push((j, contact_area(radius, dist)));
                     }
                 }
-                if list.len() > before {
+                if !fresh.is_empty() {
                     // the new partners ascend, as the unbonded contacts they came from
-                    let mut new = list[before..].iter().map(|&(j, _)| j).peekable();
+                    let mut new = fresh.iter().map(|&(j, _)| j).peekable();
                     unbonded.retain(|&j| new.next_if_eq(&j).is_none());
-                    list.sort_unstable_by_key(|&(b, _)| b);
                 }
-                list.len() - before
+                fresh.len()
             })
-            .sum();
-        if formed > 0 {
-            self.bond_index.index(&self.bonds);
+            .sum::<usize>();
+        if found == 0 {
+            return 0;
         }
-        formed / 2
+        let before = self.bond_index.count();
+        for (i, fresh) in self.fresh.iter().enumerate() {
+            for &(j, area) in fresh.iter().filter(|&&(j, _)| j as usize > i) {
+                self.bond_index.add(i, j as usize, area);
+            }
+        }
+        self.bond_index.count() - before
     }
 }
 
