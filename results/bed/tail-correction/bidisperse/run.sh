@@ -30,3 +30,13 @@ done
 # a list whose cut-off spans the cell: exact sums' answer (seed 1)
 $B bed --preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0 --piston-speed 22.5mm/s --seed 1 \
   --neighbors verlet --cutoff 500 --list-radius 501 --tail-correction none --json > list-cutoff500-n400-a0.5-R0-s1.json
+# (2026-12-04) the same beds from nearby starts: initial velocities scaled by 1.01, 0.99, 1.02, 0.98
+# (exact sums, the default tail and the quadtree at 0.3), and the quadtree at 0.02 on seed 2
+for v in 0.0101 0.0099 0.0102 0.0098; do for s in 1 2 3 4 5 6 7 8; do
+  f=(--preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0 --piston-speed 22.5mm/s --seed $s --initial-speed $v)
+  $B bed "${f[@]}" --neighbors exact --json > exact-v$v-n400-a0.5-R0-s$s.json
+  $B bed "${f[@]}" --json > tail-v$v-n400-a0.5-R0-s$s.json
+  $B bed "${f[@]}" --neighbors tree --opening-angle 0.3 --json > tree0.3-v$v-n400-a0.5-R0-s$s.json
+done; done
+$B bed --preset bidisperse --particles 400 --aspect-ratio 0.5 --mixing-ratio 0 --piston-speed 22.5mm/s --seed 2 \
+  --neighbors tree --opening-angle 0.02 --json > tree0.02-n400-a0.5-R0-s2.json
