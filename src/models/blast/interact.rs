@@ -291,7 +291,9 @@ impl Interactor {
                 self.bond_index.add(i, j as usize, area);
             }
         }
-        self.bond_index.count() - before
+        let added = self.bond_index.count() - before;
+        debug_assert_eq!(found, 2 * added, "each new bond is found from both sides");
+        added
     }
 }
 
