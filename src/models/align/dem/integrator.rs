@@ -5,6 +5,7 @@
 //! angular speed of the largest particle under the largest possible torque K V.
 
 use nalgebra::UnitQuaternion;
+use rayon::prelude::*;
 
 use super::packing::Packing;
 use super::state::State;
@@ -77,11 +78,9 @@ impl Heun {
     /// Largest distance any particle (or the lid) would move in dt at the state's velocities.
     pub fn stage_move(&self, state: &State) -> f64 {
         let lid_speed = state.lid.map_or(0.0, |l| l.velocity.abs());
-        state
-            .motion
-            .iter()
+        (state.motion.par_iter())
             .map(|m| m.v.norm())
-            .fold(lid_speed, f64::max)
+            .reduce(|| lid_speed, f64::max)
             * self.dt
     }
 
@@ -89,14 +88,18 @@ impl Heun {
     /// velocities, or (`corrected`) with the mean of predictor and corrector velocities.
     fn advance(&self, state: &mut State, corrected: bool) {
         let (dt, start) = (self.dt, &self.start);
-        for i in 0..start.position.len() {
-            let a = start.motion[i];
-            let b = if corrected { state.motion[i] } else { a };
-            let (v, w) = (0.5 * (a.v + b.v), 0.5 * (a.w + b.w));
-            state.position[i] = start.position[i] + dt * v;
-            let q = UnitQuaternion::from_scaled_axis(dt * w) * start.orientation[i];
-            state.orientation[i] = UnitQuaternion::new_normalize(q.into_inner());
-        }
+        let motion = &state.motion;
+        // particle by particle (a sine and a cosine each), so on the pool
+        (state.position.par_iter_mut().zip(&mut state.orientation))
+            .enumerate()
+            .for_each(|(i, (position, orientation))| {
+                let a = start.motion[i];
+                let b = if corrected { motion[i] } else { a };
+                let (v, w) = (0.5 * (a.v + b.v), 0.5 * (a.w + b.w));
+                *position = start.position[i] + dt * v;
+                let q = UnitQuaternion::from_scaled_axis(dt * w) * start.orientation[i];
+                *orientation = UnitQuaternion::new_normalize(q.into_inner());
+            });
         if let (Some(a), Some(lid)) = (start.lid, state.lid.as_mut()) {
             let b = if corrected { lid.velocity } else { a.velocity };
             lid.height = a.height + dt * 0.5 * (a.velocity + b);

@@ -3,6 +3,7 @@
 //! solver's effort, the signs of a numerical breakdown, and the run's outcome built from them.
 
 use nalgebra::{UnitQuaternion, Vector3};
+use rayon::prelude::*;
 
 use super::contacts::ContactSet;
 use super::packing::{bed_top, packing_fraction, Packing};
@@ -36,19 +37,23 @@ pub fn crossing_time(series: &[(f64, f64)], level: f64) -> Option<f64> {
 /// the regularized law acts as a viscous creep law and the rotation rate depends on v_ε. Near 1
 /// the run is in the creep regime (spec align.md, "Observables"). NaN without loaded contacts.
 pub fn sticking_fraction(stage: &Stage, motion: &[Motion]) -> f64 {
-    let (mut loaded, mut sticking) = (0usize, 0usize);
-    for (i, m) in motion.iter().enumerate() {
-        for c in stage.contacts.of(i) {
-            if stage.law.friction_of(&c) > 0.0 && c.overlap > 0.0 {
-                // the lid moves along its normal only: its speed adds no slip
-                let partner = stage.partner_velocity(&c, 0.0, |j| motion[j]);
-                let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
-                let slip = rel - rel.dot(&c.normal) * c.normal;
-                loaded += 1;
-                sticking += usize::from(slip.norm() < 3.0 * stage.slip_scale);
+    // counts, so the same on the pool at any thread count
+    let (loaded, sticking) = (motion.par_iter().enumerate())
+        .map(|(i, m)| {
+            let (mut loaded, mut sticking) = (0usize, 0usize);
+            for c in stage.contacts.of(i) {
+                if stage.law.friction_of(&c) > 0.0 && c.overlap > 0.0 {
+                    // the lid moves along its normal only: its speed adds no slip
+                    let partner = stage.partner_velocity(&c, 0.0, |j| motion[j]);
+                    let rel = m.v + stage.radius[i] * m.w.cross(&c.normal) - partner;
+                    let slip = rel - rel.dot(&c.normal) * c.normal;
+                    loaded += 1;
+                    sticking += usize::from(slip.norm() < 3.0 * stage.slip_scale);
+                }
             }
-        }
-    }
+            (loaded, sticking)
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     sticking as f64 / loaded as f64
 }
 

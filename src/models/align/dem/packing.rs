@@ -319,29 +319,52 @@ impl Loads<'_> {
         force: &mut [Load],
         work: &mut ContactWork,
     ) -> [f64; 3] {
+        self.evaluate_then(position, container, list, force, work, |_, _| {})
+    }
+
+    /// [`Self::evaluate`], with `then` finishing each particle's load (the release's anchor)
+    /// before its largest values are taken. Why one pass: the gather, the contact count and
+    /// the largest values each cost a fork and a join on the pool, which on 2 threads cost
+    /// more than the count and the maxima themselves (results/bench/README.md, "align on 2
+    /// threads: fewer joins").
+    fn evaluate_then(
+        &self,
+        position: &[Vector3<f64>],
+        container: &Container,
+        list: &mut NeighborList<3>,
+        force: &mut [Load],
+        work: &mut ContactWork,
+        then: impl Fn(usize, &mut Load) + Sync,
+    ) -> [f64; 3] {
         list.update(position, self.radius);
         let list = &*list;
-        force.par_iter_mut().enumerate().for_each(|(i, slot)| {
-            *slot = (
-                Vector3::new(0.0, 0.0, -self.down_force * self.settling.share[i]),
-                0.0,
-                0.0,
-                0,
+        let (largest, contacts) = force
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, slot)| {
+                *slot = (
+                    Vector3::new(0.0, 0.0, -self.down_force * self.settling.share[i]),
+                    0.0,
+                    0.0,
+                    0,
+                );
+                self.law
+                    .contacts_of(i, position, self.radius, list, container, |_, c| {
+                        let (f, k) = self.repulsion.force_and_stiffness(&c);
+                        slot.0 -= f * c.normal;
+                        slot.1 += k;
+                        slot.2 = f64::max(slot.2, c.overlap);
+                        slot.3 += u32::from(c.particle().is_some());
+                    });
+                then(i, slot);
+                ([slot.0.norm(), slot.1, slot.2], slot.3 as usize)
+            })
+            .reduce(
+                || ([0.0; 3], 0),
+                |(a, m), (b, n)| ([0, 1, 2].map(|k| f64::max(a[k], b[k])), m + n),
             );
-            self.law
-                .contacts_of(i, position, self.radius, list, container, |_, c| {
-                    let (f, k) = self.repulsion.force_and_stiffness(&c);
-                    slot.0 -= f * c.normal;
-                    slot.1 += k;
-                    slot.2 = f64::max(slot.2, c.overlap);
-                    slot.3 += u32::from(c.particle().is_some());
-                });
-        });
-        work.add(list.len(), force.par_iter().map(|f| f.3 as usize).sum());
-        force
-            .par_iter()
-            .map(|f| [f.0.norm(), f.1, f.2])
-            .reduce(|| [0.0; 3], |a, b| [0, 1, 2].map(|k| f64::max(a[k], b[k])))
+        work.add(list.len(), contacts);
+        largest
     }
 }
 
@@ -496,16 +519,48 @@ fn fire_sums(velocity: &[Vector3<f64>], force: &[Load]) -> [f64; 3] {
     })
 }
 
+/// The chunk of [`ordered_sums`] and [`ordered_update`]: their sums' order, so their bits.
+const SUM_CHUNK: usize = 2048;
+
+/// Adds K sums term by term.
+fn add_sums<const K: usize>(a: [f64; K], b: [f64; K]) -> [f64; K] {
+    std::array::from_fn(|k| a[k] + b[k])
+}
+
 /// K sums Σ terms(i) over 0..n at once, summed in fixed chunks (in parallel) and then in chunk
 /// order, so the result does not depend on the number of threads.
 fn ordered_sums<const K: usize>(n: usize, terms: impl Fn(usize) -> [f64; K] + Sync) -> [f64; K] {
-    const CHUNK: usize = 2048;
-    let add = |a: [f64; K], b: [f64; K]| std::array::from_fn(|k| a[k] + b[k]);
-    let partial: Vec<[f64; K]> = (0..n.div_ceil(CHUNK))
+    let partial: Vec<[f64; K]> = (0..n.div_ceil(SUM_CHUNK))
         .into_par_iter()
-        .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).fold([0.0; K], |acc, i| add(acc, terms(i))))
+        .map(|c| {
+            (c * SUM_CHUNK..((c + 1) * SUM_CHUNK).min(n))
+                .fold([0.0; K], |acc, i| add_sums(acc, terms(i)))
+        })
         .collect();
-    partial.into_iter().fold([0.0; K], add)
+    partial.into_iter().fold([0.0; K], add_sums)
+}
+
+/// One pass that updates each item in place (`term(i, item)`) and returns the K sums of the
+/// terms it gives, summed as [`ordered_sums`] sums them (the same bits), and the largest of
+/// the values it gives beside them: an update and the sums over its result in one fork and
+/// join on the pool instead of two or three.
+fn ordered_update<T: Send, const K: usize>(
+    items: &mut [T],
+    term: impl Fn(usize, &mut T) -> ([f64; K], f64) + Sync,
+) -> ([f64; K], f64) {
+    let partial: Vec<([f64; K], f64)> = items
+        .par_chunks_mut(SUM_CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
+            (chunk.iter_mut().enumerate()).fold(([0.0; K], 0.0), |(acc, top), (k, item)| {
+                let (terms, value) = term(c * SUM_CHUNK + k, item);
+                (add_sums(acc, terms), f64::max(top, value))
+            })
+        })
+        .collect();
+    (partial.into_iter()).fold(([0.0; K], 0.0), |(a, x), (b, y)| {
+        (add_sums(a, b), f64::max(x, y))
+    })
 }
 
 /// What a flow stage's stop rule sees.

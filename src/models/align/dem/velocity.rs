@@ -257,14 +257,18 @@ impl Schedule {
     /// Builds the order for the positions at which the neighbour list was built; cells of a
     /// colour are relaxed concurrently from `parallel_from` particles on (same result either way).
     pub fn new(positions: &[Vector3<f64>], cell: f64, parallel_from: usize) -> Self {
+        // cells keyed z first: a colour's cells then run bottom to top, as the particles are
+        // numbered (`Numerics::cell_order_from`), so the halves the pool splits a colour into
+        // hold runs of neighbouring particles in memory, not interleaved ones; the order of a
+        // colour's cells does not change the sweep (they share no particles)
         let mut cells: std::collections::BTreeMap<[i64; 3], Vec<u32>> = Default::default();
         for (i, p) in positions.iter().enumerate() {
-            let key = [0, 1, 2].map(|a| (p[a] / cell).floor() as i64);
+            let key = [2, 1, 0].map(|a| (p[a] / cell).floor() as i64);
             cells.entry(key).or_default().push(i as u32);
         }
         let mut colours: [Vec<Vec<u32>>; 8] = Default::default();
-        for (key, members) in cells {
-            let colour = key
+        for ([z, y, x], members) in cells {
+            let colour = [x, y, z]
                 .iter()
                 .enumerate()
                 .map(|(a, k)| (k.rem_euclid(2) as usize) << a)

@@ -20,7 +20,10 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::{ordered_sums, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE, MAX_STEPS, SKIN};
+use super::{
+    ordered_sums, ordered_update, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE, MAX_STEPS,
+    SKIN,
+};
 use crate::models::align::dem::contacts::Container;
 use crate::neighbor::NeighborList;
 
@@ -40,19 +43,9 @@ struct Anchor {
 }
 
 impl Anchor {
-    /// Adds each spring's force −c (x − x₀) to the net forces; returns the largest net force
-    /// (a maximum: the same at any thread count).
-    fn pull(&self, position: &[Vector3<f64>], force: &mut [Load]) -> f64 {
-        let c = self.stiffness;
-        force
-            .par_iter_mut()
-            .zip(position)
-            .zip(&self.position)
-            .map(|((f, x), x0)| {
-                f.0 -= c * (x - x0);
-                f.0.norm()
-            })
-            .reduce(|| 0.0, f64::max)
+    /// Adds particle i's spring force −c (x − x₀) to its net force.
+    fn pull(&self, i: usize, position: &[Vector3<f64>], force: &mut Load) {
+        force.0 -= self.stiffness * (position[i] - self.position[i]);
     }
 }
 
@@ -135,6 +128,18 @@ impl ConjugateGradients {
         }
     }
 
+    /// Sets the search direction to f + β d (`None`: to f itself) and returns Σ f·d and the
+    /// largest |d|, in one pass.
+    fn steer(&mut self, beta: Option<f64>) -> (f64, f64) {
+        let force = &self.force;
+        let ([descent], reach) = ordered_update(&mut self.direction, |i, d| {
+            let f = force[i].0;
+            *d = beta.map_or(f, |beta| f + beta * *d);
+            ([f.dot(d)], d.norm())
+        });
+        (descent, reach)
+    }
+
     /// Moves `position` to the minimizer of U + anchor until the largest net force is below
     /// `target`, starting from `self.force`, the forces at `position` (= the anchor's).
     fn minimize(
@@ -147,23 +152,18 @@ impl ConjugateGradients {
         work: &mut ContactWork,
     ) -> Result<(), String> {
         let n = position.len();
+        // the net forces with the anchor, in one pass; returns the largest
         let mut net_force = |at: &[Vector3<f64>], force: &mut [Load], list: &mut _| {
-            loads.evaluate(at, container, list, force, work);
-            anchor.pull(at, force)
+            let then = |i, f: &mut Load| anchor.pull(i, at, f);
+            loads.evaluate_then(at, container, list, force, work, then)[0]
         };
         let mut max_force = f64::INFINITY;
-        let along_force = |d: &mut [Vector3<f64>], f: &[Load]| {
-            (d.par_iter_mut().zip(f)).for_each(|(d, f)| *d = f.0);
-        };
-        along_force(&mut self.direction, &self.force);
+        let (_, mut reach) = self.steer(None);
         for _ in 0..MAX_STEPS {
             if max_force < target {
                 return Ok(());
             }
-            let reach = (self.direction.par_iter())
-                .map(|d| d.norm())
-                .reduce(|| 0.0, f64::max)
-                .max(f64::MIN_POSITIVE);
+            reach = reach.max(f64::MIN_POSITIVE);
             let eps = PROBE_MOVE / reach;
             (self
                 .trial
@@ -183,18 +183,25 @@ impl ConjugateGradients {
                 f64::INFINITY
             };
             let alpha = newton.min(MAX_MOVE / reach);
-            (position.par_iter_mut().zip(d)).for_each(|(x, d)| *x += alpha * d);
-            (self.previous.par_iter_mut().zip(f)).for_each(|(o, f)| *o = f.0);
+            (position
+                .par_iter_mut()
+                .zip(&mut self.previous)
+                .zip(d)
+                .zip(f))
+            .for_each(|(((x, old), d), f)| {
+                *x += alpha * d;
+                *old = f.0;
+            });
             max_force = net_force(position, &mut self.force, &mut self.list);
             let (f, old) = (&self.force, &self.previous);
             let [gain, old_squared] = ordered_sums(n, |i| {
                 [f[i].0.dot(&(f[i].0 - old[i])), old[i].norm_squared()]
             });
             let beta = (gain / old_squared).max(0.0);
-            (self.direction.par_iter_mut().zip(f)).for_each(|(d, f)| *d = f.0 + beta * *d);
-            let d = &self.direction;
-            if ordered_sums(n, |i| [f[i].0.dot(&d[i])])[0] <= 0.0 {
-                along_force(&mut self.direction, f);
+            let descent;
+            (descent, reach) = self.steer(Some(beta));
+            if descent <= 0.0 {
+                (_, reach) = self.steer(None);
             }
         }
         Err("packing: a release step did not converge".into())
