@@ -7,9 +7,10 @@
 //! with every rounding used), so `PairLaw::contact` gives j exactly −F and the same moment
 //! (lever·(−n)) × (−t) = (lever·n) × t. Each particle then adds its bonds' shares in its
 //! list's ascending order, the order of the per-particle evaluation this replaces, so the
-//! forces keep their bits. The pairs sit in the order they formed: a pair's wrench does not
-//! depend on where it sits (the four lanes give the scalar law's bits), so no bit depends on
-//! that order, and a new bond costs an insertion, not a re-index of every bond.
+//! forces keep their bits. A new bond is appended to the pairs (an insertion into two lists,
+//! not a re-index of every bond), and the pairs are renumbered in first-particle order once
+//! an eighth of them are new ([`BondIndex::tidy`]): a pair's wrench does not depend on where
+//! it sits (the four lanes give the scalar law's bits), so no bit depends on that order.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -23,15 +24,19 @@ use super::pairs::{Body, PairLaw, Wrench};
 const CHUNK: usize = 256;
 
 /// Each particle's bonds, and the bonded pairs once each with their wrenches at the last
-/// evaluation. Bonds are permanent, so new ones are appended: a pair's index never changes.
+/// evaluation. Bonds are permanent: new ones are appended, and [`BondIndex::tidy`] puts the
+/// pairs back in first-particle order now and then.
 #[derive(Debug, Clone, Default)]
 pub struct BondIndex {
     /// Each particle's bonds, ascending by partner.
     lists: Vec<Vec<Bond>>,
-    /// (i, j, contact area at bonding in m²), i < j, in the order the bonds formed.
+    /// (i, j, contact area at bonding in m²), i < j: ascending up to `tidy_at`, then in the
+    /// order the bonds formed.
     pairs: Vec<(u32, u32, f64)>,
     /// Wrench on the pair's first particle, N and N·m.
     wrenches: Vec<Wrench>,
+    /// The pairs at the last [`BondIndex::tidy`].
+    tidy_at: usize,
 }
 
 /// One entry of a particle's bond list: the partner and the pair's index.
@@ -88,6 +93,32 @@ impl BondIndex {
                 },
             );
         }
+    }
+
+    /// Renumbers the pairs ascending by first particle, then second, once the pairs appended
+    /// since the last renumbering are an eighth of all. Why: the force gather runs over the
+    /// particles in parallel and reads each particle's pairs; in first-particle order a
+    /// thread's upper pairs sit in the part of the array it wrote itself, where in the order
+    /// of formation they are scattered over lines the other core wrote. No bit depends on the
+    /// order (see the module's comment).
+    pub fn tidy(&mut self) {
+        let appended = self.pairs.len() - self.tidy_at;
+        if appended == 0 || 8 * appended < self.pairs.len() {
+            return;
+        }
+        let mut new_of = vec![0u32; self.pairs.len()];
+        let mut pairs = Vec::with_capacity(self.pairs.len());
+        for (i, list) in self.lists.iter().enumerate() {
+            for bond in list.iter().filter(|b| b.partner as usize > i) {
+                new_of[bond.pair as usize] = pairs.len() as u32;
+                pairs.push(self.pairs[bond.pair as usize]);
+            }
+        }
+        for bond in self.lists.iter_mut().flatten() {
+            bond.pair = new_of[bond.pair as usize];
+        }
+        self.pairs = pairs;
+        self.tidy_at = self.pairs.len();
     }
 
     /// Every bonded pair's wrench on its first particle at the state `cloud`: four pairs
@@ -209,9 +240,10 @@ mod tests {
         index
     }
 
-    /// Bonds added in a random order, with particles bonded to none, to lower ones only and
-    /// to upper ones only: every list ascends, holds each partner once, and each entry
-    /// points at its pair, held once as (lower, upper, area).
+    /// Bonds added in a random order, in batches each followed by a [`BondIndex::tidy`],
+    /// with particles bonded to none, to lower ones only and to upper ones only: every list
+    /// ascends, holds each partner once, and each entry points at its pair, held once as
+    /// (lower, upper, area); a tidy that renumbers leaves the pairs ascending.
     #[test]
     fn every_entry_finds_its_pair_once() {
         use rand::seq::SliceRandom;
@@ -228,9 +260,22 @@ mod tests {
         }
         pairs.shuffle(&mut rng);
         let mut index = BondIndex::new(n);
-        for &(i, j, area) in &pairs {
-            index.add(i, j, area);
+        let mut renumbered = 0;
+        for batch in pairs.chunks(pairs.len() / 20) {
+            for &(i, j, area) in batch {
+                index.add(i, j, area);
+            }
+            index.tidy();
+            if index.tidy_at == index.count() {
+                renumbered += 1;
+                let firsts: Vec<_> = index.pairs.iter().map(|&(a, b, _)| (a, b)).collect();
+                assert!(firsts.windows(2).all(|w| w[0] < w[1]));
+            }
         }
+        assert!(
+            renumbered > 3 && index.tidy_at < index.count(),
+            "{renumbered}"
+        );
         assert_eq!(index.count(), pairs.len());
         for (i, list) in index.lists.iter().enumerate() {
             let mut expected: Vec<u32> = pairs

@@ -292,6 +292,7 @@ impl Interactor {
             }
         }
         let added = self.bond_index.count() - before;
+        self.bond_index.tidy();
         debug_assert_eq!(found, 2 * added, "each new bond is found from both sides");
         added
     }
