@@ -215,6 +215,7 @@ impl Packing {
                 &mut list,
                 &mut force,
                 &mut work,
+                as_gathered,
             );
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
@@ -244,7 +245,14 @@ impl Packing {
                         .zip(&self.position)
                         .zip(&force)
                         .for_each(|((t, x), f)| *t = x + dt * f.0);
-                    loads.evaluate(trial, &self.container, &mut list, trial_force, &mut work);
+                    loads.evaluate(
+                        trial,
+                        &self.container,
+                        &mut list,
+                        trial_force,
+                        &mut work,
+                        as_gathered,
+                    );
                     self.position
                         .par_iter_mut()
                         .zip(&force)
@@ -308,26 +316,14 @@ struct Loads<'a> {
 }
 
 impl Loads<'_> {
-    /// Every particle's load at `position` (one parallel gather; no contact list is stored);
-    /// returns the largest net force, summed stiffness and overlap (exact at any thread
-    /// count).
+    /// Every particle's load at `position` (one parallel gather; no contact list is stored),
+    /// with `then` finishing each particle's load (the release's anchor; [`as_gathered`]
+    /// elsewhere) before its largest values are taken; returns the largest net force, summed
+    /// stiffness and overlap (exact at any thread count). Why one pass: the gather, the
+    /// contact count and the largest values each cost a fork and a join on the pool, which on
+    /// 2 threads cost more than the count and the maxima themselves (results/bench/README.md,
+    /// "Two threads on an Intel Xeon VM").
     fn evaluate(
-        &self,
-        position: &[Vector3<f64>],
-        container: &Container,
-        list: &mut NeighborList<3>,
-        force: &mut [Load],
-        work: &mut ContactWork,
-    ) -> [f64; 3] {
-        self.evaluate_then(position, container, list, force, work, |_, _| {})
-    }
-
-    /// [`Self::evaluate`], with `then` finishing each particle's load (the release's anchor)
-    /// before its largest values are taken. Why one pass: the gather, the contact count and
-    /// the largest values each cost a fork and a join on the pool, which on 2 threads cost
-    /// more than the count and the maxima themselves (results/bench/README.md, "align on 2
-    /// threads: fewer joins").
-    fn evaluate_then(
         &self,
         position: &[Vector3<f64>],
         container: &Container,
@@ -367,6 +363,9 @@ impl Loads<'_> {
         largest
     }
 }
+
+/// A load as the contacts and the settling force make it (no anchor).
+fn as_gathered(_: usize, _: &mut Load) {}
 
 /// The packing stages' integrators.
 enum Stepper {

@@ -21,8 +21,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::{
-    ordered_sums, ordered_update, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE, MAX_STEPS,
-    SKIN,
+    as_gathered, ordered_sums, ordered_update, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE,
+    MAX_STEPS, SKIN,
 };
 use crate::models::align::dem::contacts::Container;
 use crate::neighbor::NeighborList;
@@ -81,8 +81,14 @@ impl Packing {
         };
         loop {
             let force = &mut solver.force;
-            let [max_force, max_stiffness, max_overlap] =
-                loads.evaluate(position, container, &mut solver.list, force, &mut work);
+            let [max_force, max_stiffness, max_overlap] = loads.evaluate(
+                position,
+                container,
+                &mut solver.list,
+                force,
+                &mut work,
+                as_gathered,
+            );
             // (a bed whose forces all balance exactly is at rest: γ ẋ = F no longer moves it)
             if max_overlap < tolerance || max_force == 0.0 {
                 return Ok((work.evaluations as usize, work));
@@ -155,7 +161,7 @@ impl ConjugateGradients {
         // the net forces with the anchor, in one pass; returns the largest
         let mut net_force = |at: &[Vector3<f64>], force: &mut [Load], list: &mut _| {
             let then = |i, f: &mut Load| anchor.pull(i, at, f);
-            loads.evaluate_then(at, container, list, force, work, then)[0]
+            loads.evaluate(at, container, list, force, work, then)[0]
         };
         let mut max_force = f64::INFINITY;
         let (_, mut reach) = self.steer(None);
@@ -263,6 +269,7 @@ mod tests {
             list,
             force,
             &mut work,
+            as_gathered,
         );
         solver
             .minimize(
