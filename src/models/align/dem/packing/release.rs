@@ -367,4 +367,29 @@ mod tests {
         let serial: f64 = (0..10_000).map(term).sum();
         assert!((one - serial).abs() <= 1e-10 * serial.abs().max(1e16));
     }
+
+    /// The fused update sums its terms with `ordered_sums`' bits at any thread count (the
+    /// release's direction update relies on it), updates every item, and returns the largest
+    /// of its values.
+    #[test]
+    fn ordered_update_sums_as_ordered_sums_do() {
+        let term = |i: usize| 10f64.powi((i % 17) as i32) * if i % 3 == 0 { -1.0 } else { 1.0 };
+        let want = ordered_sums(10_001, |i| [term(i), -2.0 * term(i)]);
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut items = vec![0.0; 10_001];
+            let (sums, largest) = pool.install(|| {
+                ordered_update(&mut items, |i, x| {
+                    *x = term(i);
+                    ([*x, -2.0 * *x], (i % 977) as f64)
+                })
+            });
+            assert_eq!(sums.map(f64::to_bits), want.map(f64::to_bits), "{threads}");
+            assert_eq!(largest, 976.0);
+            assert!(items.iter().enumerate().all(|(i, &x)| x == term(i)));
+        }
+    }
 }
