@@ -94,6 +94,20 @@ impl ContactLaw {
         container: &Container,
         mut emit: impl FnMut(u32, Contact),
     ) {
+        self.particle_contacts_of(i, positions, radii, neighbors, &mut emit);
+        self.wall_contacts_of(i, positions, radii, container, emit);
+    }
+
+    /// The particle part of [`Self::contacts_of`]: listed neighbours closer than the skin, in
+    /// list order.
+    pub fn particle_contacts_of(
+        &self,
+        i: usize,
+        positions: &[Vector3<f64>],
+        radii: &[f64],
+        neighbors: &NeighborList,
+        mut emit: impl FnMut(u32, Contact),
+    ) {
         let (p, r) = (positions[i], radii[i]);
         for &j in neighbors.of(i) {
             let ju = j as usize;
@@ -109,10 +123,32 @@ impl ContactLaw {
                 emit(j, contact);
             }
         }
+    }
+
+    /// The wall part of [`Self::contacts_of`]: the surfaces of [`wall_gaps`] closer than the
+    /// skin, in their order.
+    pub fn wall_contacts_of(
+        &self,
+        i: usize,
+        positions: &[Vector3<f64>],
+        radii: &[f64],
+        container: &Container,
+        mut emit: impl FnMut(u32, Contact),
+    ) {
+        let (p, r) = (positions[i], radii[i]);
+        // most particles are near no surface: tell on the gaps alone (those of wall_gaps)
+        let near = |gap: f64| r - gap > -self.skin;
+        let c = container;
+        if ![p.x, c.lx - p.x, p.y, c.ly - p.y, p.z]
+            .into_iter()
+            .any(near)
+            && !c.top.is_some_and(|top| near(top - p.z))
+        {
+            return;
+        }
         for (k, (partner, normal, gap)) in wall_gaps(p, container).enumerate() {
-            let contact = self.wall(r, partner, normal, gap);
-            if contact.overlap > -self.skin {
-                emit(SURFACE + k as u32, contact);
+            if near(gap) {
+                emit(SURFACE + k as u32, self.wall(r, partner, normal, gap));
             }
         }
     }

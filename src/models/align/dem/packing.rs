@@ -38,6 +38,7 @@ use crate::models::align::params::{PackingParams, ReleaseScheme, RestMeasure, Se
 use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
+mod hertz_lanes;
 mod release;
 pub mod store;
 
@@ -344,14 +345,20 @@ impl Loads<'_> {
                     0.0,
                     0,
                 );
-                self.law
-                    .contacts_of(i, position, self.radius, list, container, |_, c| {
-                        let (f, k) = self.repulsion.force_and_stiffness(&c);
-                        slot.0 -= f * c.normal;
-                        slot.1 += k;
-                        slot.2 = f64::max(slot.2, c.overlap);
-                        slot.3 += u32::from(c.particle().is_some());
-                    });
+                let (law, radius, repulsion) = (self.law, self.radius, self.repulsion);
+                match repulsion {
+                    Repulsion::Hertz => {
+                        hertz_lanes::add_particle_contacts(law, i, position, radius, list, slot)
+                    }
+                    Repulsion::Harmonic => {
+                        law.particle_contacts_of(i, position, radius, list, |_, c| {
+                            gather(repulsion, slot, &c)
+                        })
+                    }
+                }
+                law.wall_contacts_of(i, position, radius, container, |_, c| {
+                    gather(repulsion, slot, &c)
+                });
                 then(i, slot);
                 ([slot.0.norm(), slot.1, slot.2], slot.3 as usize)
             })
@@ -362,6 +369,16 @@ impl Loads<'_> {
         work.add(list.len(), contacts);
         largest
     }
+}
+
+/// Adds contact `c`'s repulsion to a load: its force along the normal, its stiffness, its
+/// overlap to the largest, and a particle contact to the count.
+fn gather(repulsion: Repulsion, load: &mut Load, c: &super::contacts::Contact) {
+    let (f, k) = repulsion.force_and_stiffness(c);
+    load.0 -= f * c.normal;
+    load.1 += k;
+    load.2 = f64::max(load.2, c.overlap);
+    load.3 += u32::from(c.particle().is_some());
 }
 
 /// A load as the contacts and the settling force make it (no anchor).
