@@ -136,14 +136,9 @@ impl ContactLaw {
         mut emit: impl FnMut(u32, Contact),
     ) {
         let (p, r) = (positions[i], radii[i]);
-        // most particles are near no surface: tell on the gaps alone (those of wall_gaps)
+        // most particles are near no surface: tell on the gaps alone first
         let near = |gap: f64| r - gap > -self.skin;
-        let c = container;
-        if ![p.x, c.lx - p.x, p.y, c.ly - p.y, p.z]
-            .into_iter()
-            .any(near)
-            && !c.top.is_some_and(|top| near(top - p.z))
-        {
+        if !wall_gaps(p, container).any(|(_, _, gap)| near(gap)) {
             return;
         }
         for (k, (partner, normal, gap)) in wall_gaps(p, container).enumerate() {
