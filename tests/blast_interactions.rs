@@ -1,12 +1,15 @@
 //! The interacting blast model: the adaptive trapezoidal scheme (C9, C10) and the pair forces
 //! (C4–C8): agreement with the explicit scheme, step control through a stiff contact,
 //! second-order convergence at φ = 0.5, action = reaction, the near-field crossover, bonding,
-//! the near-field cut-off's truncation error, and thread-count independence.
+//! the near-field cut-off's truncation error, thread-count independence, and the stage
+//! times a benchmark reads.
 
 use magopt::models::blast::cloud::Cloud;
-use magopt::models::blast::interact::Interactor;
+use magopt::models::blast::interact::{Interactor, StageTimes};
 use magopt::models::blast::pairs::{Body, PairLaw};
-use magopt::models::blast::{run, BlastParams, DragLaw, Integrator, Interactions, Simulation};
+use magopt::models::blast::{
+    run, BlastOutcome, BlastParams, DragLaw, Integrator, Interactions, Simulation,
+};
 use nalgebra::Vector3;
 
 fn small_cloud() -> BlastParams {
@@ -322,5 +325,31 @@ fn runs_are_bit_identical_at_any_thread_count() {
         let (one, two) = (in_pool(1), in_pool(2));
         assert_eq!(one.cloud, two.cloud);
         assert_eq!(one.stats, two.stats);
+        for run in [one, two] {
+            stage_times_add_up(&run, interactions.any());
+        }
+    }
+}
+
+/// The force stages' wall times lie within the run's, and only a run with interactions has
+/// them.
+fn stage_times_add_up(run: &BlastOutcome, interacting: bool) {
+    let t = run.stage_times;
+    let stages = [
+        t.contacts,
+        t.near_field,
+        t.bonds,
+        t.gather,
+        t.bond_formation,
+    ];
+    assert!(stages.iter().all(|&s| s >= 0.0), "{t:?}");
+    assert!(stages.iter().sum::<f64>() <= run.wall_time_s, "{t:?}");
+    if interacting {
+        assert!(
+            t.contacts > 0.0 && t.near_field > 0.0 && t.gather > 0.0,
+            "{t:?}"
+        );
+    } else {
+        assert_eq!(t, StageTimes::default());
     }
 }

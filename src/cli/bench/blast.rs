@@ -3,12 +3,15 @@
 //! particle count and thread count: wall time, steps and particle-steps per second, and for
 //! the exact near field the pairs summed per second (N(N − 1)/2 per force evaluation), also
 //! per CPU second (per core on a loaded machine). Each interacting row also gives its near
-//! field's error against the exact double-precision sum on the run's final cloud.
+//! field's error against the exact double-precision sum on the run's final cloud, and the
+//! wall time of each force stage (contacts, near field, bonds, gather, bond formation; the
+//! rest is the integrator's own work), so a thread count's speed-up can be read stage by
+//! stage.
 
 use serde_json::json;
 
 use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
-use crate::models::blast::interact::near_field_error;
+use crate::models::blast::interact::{near_field_error, StageTimes};
 use crate::models::blast::study::BlastModel;
 use crate::models::blast::{run as run_blast, BlastParams, Interactions, NearFieldPrecision};
 use crate::study::model::StudyModel;
@@ -102,6 +105,14 @@ fn measure(
             .as_ref()
             .map_or(String::new(), |f| format!("  failed: {f}"))
     );
+    let stages = interacting.then(|| stage_row(&o.stage_times, o.wall_time_s));
+    if let Some(stages) = &stages {
+        let text: Vec<String> = stages
+            .iter()
+            .map(|(k, s)| format!("{} {s:.2}", k.replace('_', " ")))
+            .collect();
+        println!("{:>15} stages (s): {}", "", text.join(", "));
+    }
     Ok(json!({
         "particles": n,
         "threads": threads,
@@ -119,7 +130,25 @@ fn measure(
         "near_field_error_rms": error.map(|e| e.1),
         "failure": o.failure,
         "peak_rss_mb": peak,
+        "stage_wall_s": stages.map(|s| {
+            s.into_iter()
+                .map(|(k, s)| (k.to_string(), json!(s)))
+                .collect::<serde_json::Map<_, _>>()
+        }),
     }))
+}
+
+/// The force stages' wall times and the rest of `wall`, s, named as the JSON rows name them.
+fn stage_row(t: &StageTimes, wall: f64) -> Vec<(&'static str, f64)> {
+    let stages = [
+        ("contacts", t.contacts),
+        ("near_field", t.near_field),
+        ("bonds", t.bonds),
+        ("gather", t.gather),
+        ("bond_formation", t.bond_formation),
+    ];
+    let rest = wall - stages.iter().map(|(_, s)| s).sum::<f64>();
+    stages.into_iter().chain([("rest", rest)]).collect()
 }
 
 /// The `--near-field-precision` value `text` with its name, parsed by the parameter's own

@@ -4,6 +4,8 @@
 //! Verlet list; the near field is summed over all pairs (exact, by the kernel of
 //! [`AllPairs`] for the source's exponents), within a cut-off, or by a Barnes–Hut tree.
 
+use std::time::Instant;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -26,6 +28,31 @@ const CHUNK: usize = 32;
 /// the interacting example 1.03–1.14× faster than 0.5 R on 1 thread (five pairs,
 /// results/bench/README.md), with the same bits (only touching pairs act).
 const CONTACT_SKIN: f64 = 0.3;
+
+/// Wall-clock time each stage of the force evaluations has taken so far, s: where a run's
+/// time goes, on any number of threads (`magopt bench blast` prints it). Which stage keeps a
+/// run from scaling shows here and nowhere else: on two threads the stages run at different
+/// speed-ups (results/bench/README.md, "`blast` on two threads, stage by stage").
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimes {
+    /// Contact-list checks and rebuilds, each with every particle's unbonded contacts.
+    pub contacts: f64,
+    /// The near field: its cut-off list, its tree or its all-pairs sum.
+    pub near_field: f64,
+    /// The bonded pairs' wrenches.
+    pub bonds: f64,
+    /// Each particle's force and moment gathered from its contacts, bonds and near field.
+    pub gather: f64,
+    /// New bonds found and added after each accepted step (with its contact-list check).
+    pub bond_formation: f64,
+}
+
+/// Adds the time since `mark` to `stage` and moves the mark to now.
+fn lap(stage: &mut f64, mark: &mut Instant) {
+    let now = Instant::now();
+    *stage += (now - *mark).as_secs_f64();
+    *mark = now;
+}
 
 /// Forces, bonds and neighbour lists of the interacting model.
 #[derive(Debug, Clone)]
@@ -51,6 +78,8 @@ pub struct Interactor {
     bond_index: BondIndex,
     radii: Vec<f64>,
     near_radii: Vec<f64>,
+    /// Time spent in each stage so far.
+    times: StageTimes,
 }
 
 impl Interactor {
@@ -78,6 +107,7 @@ impl Interactor {
             bond_index: BondIndex::new(n),
             radii: vec![params.radius; n],
             near_radii: vec![0.5 * cutoff; n],
+            times: StageTimes::default(),
         }
     }
 
@@ -92,6 +122,11 @@ impl Interactor {
         self.all_pairs
             .as_ref()
             .map_or((0, 0), AllPairs::evaluations)
+    }
+
+    /// Wall-clock time each stage has taken so far.
+    pub fn stage_times(&self) -> StageTimes {
+        self.times
     }
 
     /// Number of bonded pairs.
@@ -113,12 +148,16 @@ impl Interactor {
         forces: &mut [Vector3<f64>],
         moments: &mut [Vector3<f64>],
     ) {
+        let mut mark = Instant::now();
         let flags = self.law.flags;
         if flags.contact || flags.damping || flags.friction || flags.bonding {
             self.update_contacts(cloud);
         }
+        lap(&mut self.times.contacts, &mut mark);
         self.prepare_near_field(cloud);
+        lap(&mut self.times.near_field, &mut mark);
         self.bond_index.evaluate(&self.law, cloud, dt);
+        lap(&mut self.times.bonds, &mut mark);
         let this = &*self;
         forces
             .par_iter_mut()
@@ -126,6 +165,7 @@ impl Interactor {
             .enumerate()
             .with_min_len(CHUNK)
             .for_each(|(i, (f, m))| (*f, *m) = this.on_particle(cloud, i, dt));
+        lap(&mut self.times.gather, &mut mark);
     }
 
     /// Rebuilds the contact list if a particle has moved far enough, and then each
@@ -246,6 +286,14 @@ impl Interactor {
     /// added from their lower particle's side, in ascending order of both, so the bonds'
     /// order does not depend on the thread count.
     pub fn form_bonds(&mut self, cloud: &Cloud) -> usize {
+        let mut mark = Instant::now();
+        let added = self.add_new_bonds(cloud);
+        lap(&mut self.times.bond_formation, &mut mark);
+        added
+    }
+
+    /// [`Interactor::form_bonds`], untimed.
+    fn add_new_bonds(&mut self, cloud: &Cloud) -> usize {
         if !self.law.flags.bonding {
             return 0;
         }

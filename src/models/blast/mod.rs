@@ -35,7 +35,7 @@ use crate::output::snapshots::Recorder;
 
 use cloud::Cloud;
 use explicit::Explicit;
-use interact::Interactor;
+use interact::{Interactor, StageTimes};
 use observe::{clusters, kinetic_energy, Envelope, Motion};
 pub use params::{
     BlastParams, DragLaw, Integrator, Interactions, NearFieldBasis, NearFieldPrecision,
@@ -221,6 +221,8 @@ pub struct BlastOutcome {
     pub stats: StepStats,
     /// Wall-clock time of the integration, s.
     pub wall_time_s: f64,
+    /// Wall-clock time of each force stage within it (zeros without interactions), s.
+    pub stage_times: StageTimes,
     /// First sample time at which the kinetic energy had fallen to `stop_energy_fraction`
     /// of its initial value (the run stops there), s; None if not reached or not asked.
     pub terminal_time: Option<f64>,
@@ -309,6 +311,7 @@ pub fn run(
         cloud: Cloud::default(),
         stats: StepStats::default(),
         wall_time_s: 0.0,
+        stage_times: StageTimes::default(),
         terminal_time: None,
     };
     let axis = params.field_axis();
@@ -350,6 +353,9 @@ pub fn run(
     }
     outcome.cloud = sim.cloud.clone();
     outcome.stats = sim.stats();
+    outcome.stage_times = sim
+        .interactor()
+        .map_or_else(StageTimes::default, Interactor::stage_times);
     outcome.wall_time_s = started.elapsed().as_secs_f64();
     Ok(outcome)
 }
