@@ -6,7 +6,8 @@
 //! field's error against the exact double-precision sum on the run's final cloud, and the
 //! wall time of each force stage (contacts, near field, bonds, gather, bond formation; the
 //! rest is the integrator's own work), so a thread count's speed-up can be read stage by
-//! stage.
+//! stage. `--scale-cloud` grows the cloud and the blast energy with N, so that counts beyond
+//! the source's 2000 keep its packing fraction and energy per particle.
 
 use serde_json::json;
 
@@ -26,8 +27,13 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
         .iter()
         .map(|t| precision(t))
         .collect::<Result<Vec<_>>>()?;
+    let cloud = if args.scale_cloud {
+        "W = 5 J per particle, R_0 = (N/2000)^(1/3) m: the source's density and energy per particle"
+    } else {
+        "W = 10 kJ, R_0 = 1 m"
+    };
     println!(
-        "blast: the source's examples (B = 10 T along x, 10 C/kg, W = 10 kJ, R_0 = 1 m, R = 0.05 m); near field θ = {}",
+        "blast: the source's examples (B = 10 T along x, 10 C/kg, {cloud}, R = 0.05 m); near field θ = {}",
         args.near_field_theta
     );
     println!(
@@ -55,6 +61,9 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                 let mut p = BlastParams::source_example();
                 p.particles = n;
                 p.samples = 10;
+                if args.scale_cloud {
+                    scale_cloud(&mut p);
+                }
                 let label = match case {
                     None => "free".to_string(),
                     Some(&(name, precision)) => {
@@ -151,6 +160,15 @@ fn stage_row(t: &StageTimes, wall: f64) -> Vec<(&'static str, f64)> {
     stages.into_iter().chain([("rest", rest)]).collect()
 }
 
+/// Scales the source's cloud radius and blast energy to `p.particles`, keeping its packing
+/// fraction and energy per particle (`--scale-cloud`).
+fn scale_cloud(p: &mut BlastParams) {
+    let source = BlastParams::source_example();
+    let ratio = p.particles as f64 / source.particles as f64;
+    p.cloud_radius = source.cloud_radius * ratio.cbrt();
+    p.energy = source.energy * ratio;
+}
+
 /// The `--near-field-precision` value `text` with its name, parsed by the parameter's own
 /// declaration (`near_field_precision` in the blast study model).
 fn precision(text: &str) -> Result<(&str, NearFieldPrecision)> {
@@ -163,4 +181,26 @@ fn precision(text: &str) -> Result<(&str, NearFieldPrecision)> {
         "--near-field-precision",
     )?;
     Ok((text.trim(), p.near_field.precision))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The source's own N keeps its cloud; eight times the particles fill twice the radius
+    /// with eight times the energy (the same packing fraction and energy per particle).
+    #[test]
+    fn a_scaled_cloud_keeps_the_sources_density_and_energy_per_particle() {
+        let source = BlastParams::source_example();
+        let mut p = source.clone();
+        scale_cloud(&mut p);
+        assert_eq!(
+            (p.cloud_radius, p.energy),
+            (source.cloud_radius, source.energy)
+        );
+        p.particles = 8 * source.particles;
+        scale_cloud(&mut p);
+        assert_eq!(p.cloud_radius, 2.0 * source.cloud_radius);
+        assert_eq!(p.energy, 8.0 * source.energy);
+    }
 }

@@ -102,6 +102,11 @@ pub struct BenchArgs {
     /// blast: Barnes–Hut opening angle of the interacting example's near field (0 = exact).
     #[arg(long, default_value_t = 0.0)]
     near_field_theta: f64,
+    /// blast: keep the source's packing fraction and blast energy per particle at every N:
+    /// the cloud radius grows as (N/2000)^(1/3) from 1 m and the energy as N/2000 from 10 kJ
+    /// (without it every N shares the source's cloud, which holds about 2000 particles).
+    #[arg(long)]
+    scale_cloud: bool,
     /// blast: arithmetic of the interacting example's all-pairs near field, comma-separated
     /// (auto, double, single); each row reports its error against the exact double-precision sum
     /// on the run's final cloud.
