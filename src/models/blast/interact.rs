@@ -30,9 +30,9 @@ const CHUNK: usize = 32;
 const CONTACT_SKIN: f64 = 0.3;
 
 /// Wall-clock time each stage of the force evaluations has taken so far, s: where a run's
-/// time goes, on any number of threads (`magopt bench blast` prints it). Which stage keeps a
-/// run from scaling shows here and nowhere else: on two threads the stages run at different
-/// speed-ups (results/bench/README.md, "`blast` on two threads, stage by stage").
+/// time goes, on any number of threads (`magopt bench blast` prints it). Why: the stages scale
+/// differently with the thread count, and which one keeps a run from scaling shows here
+/// without a profiler (results/bench/README.md, "`blast` on two threads, stage by stage").
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StageTimes {
     /// Contact-list checks and rebuilds, each with every particle's unbonded contacts.
