@@ -1,5 +1,6 @@
 //! Small numerical building blocks shared by the models.
 
+pub mod lanes;
 pub mod quadrature;
 pub mod roots;
 pub mod special;

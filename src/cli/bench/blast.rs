@@ -149,13 +149,7 @@ fn measure(
 
 /// The force stages' wall times and the rest of `wall`, s, named as the JSON rows name them.
 fn stage_row(t: &StageTimes, wall: f64) -> Vec<(&'static str, f64)> {
-    let stages = [
-        ("contacts", t.contacts),
-        ("near_field", t.near_field),
-        ("bonds", t.bonds),
-        ("gather", t.gather),
-        ("bond_formation", t.bond_formation),
-    ];
+    let stages = t.named();
     let rest = wall - stages.iter().map(|(_, s)| s).sum::<f64>();
     stages.into_iter().chain([("rest", rest)]).collect()
 }

@@ -8,6 +8,8 @@
 //! (every term ≥ 0; a NaN term leaves them as [`larger`] does) and are kept per lane.
 
 #[cfg(target_arch = "x86_64")]
+use crate::numerics::lanes::transpose4;
+#[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
 use super::forces::{larger, PairSums};
@@ -141,17 +143,8 @@ unsafe fn add_four(
 ) {
     // SAFETY: a Separation is four f64 (dx, dy, 1/r², 1/r³; repr(C)).
     let load = |t: &Separation| unsafe { _mm256_loadu_pd((t as *const Separation).cast()) };
-    let (r0, r1, r2, r3) = (load(t[0]), load(t[1]), load(t[2]), load(t[3]));
-    let (a, b) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
-    let (c, d) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
-    let (mut dx, mut dy) = (
-        _mm256_permute2f128_pd::<0x20>(a, c),
-        _mm256_permute2f128_pd::<0x20>(b, d),
-    );
-    let (inv_r2, inv_r3) = (
-        _mm256_permute2f128_pd::<0x31>(a, c),
-        _mm256_permute2f128_pd::<0x31>(b, d),
-    );
+    // SAFETY: the processor has AVX.
+    let [mut dx, mut dy, inv_r2, inv_r3] = unsafe { transpose4(t.map(load)) };
     if below {
         let sign = _mm256_set1_pd(-0.0);
         (dx, dy) = (_mm256_xor_pd(dx, sign), _mm256_xor_pd(dy, sign));
@@ -174,18 +167,8 @@ unsafe fn add_four(
     acc.stiffest = _mm256_max_pd(mu_r5, acc.stiffest);
     acc.closeness = _mm256_max_pd(closeness, acc.closeness);
     // rows (f_x, f_y, normal, 0) of entries 0–3
-    let zero = _mm256_setzero_pd();
-    let (a, b) = (_mm256_unpacklo_pd(fx, fy), _mm256_unpackhi_pd(fx, fy));
-    let (c, d) = (
-        _mm256_unpacklo_pd(normal, zero),
-        _mm256_unpackhi_pd(normal, zero),
-    );
-    for row in [
-        _mm256_permute2f128_pd::<0x20>(a, c),
-        _mm256_permute2f128_pd::<0x20>(b, d),
-        _mm256_permute2f128_pd::<0x31>(a, c),
-        _mm256_permute2f128_pd::<0x31>(b, d),
-    ] {
+    // SAFETY: the processor has AVX.
+    for row in unsafe { transpose4([fx, fy, normal, _mm256_setzero_pd()]) } {
         acc.sums = _mm256_add_pd(acc.sums, row);
     }
 }

@@ -47,6 +47,19 @@ pub struct StageTimes {
     pub bond_formation: f64,
 }
 
+impl StageTimes {
+    /// The stages with their names, in the order the evaluation runs them.
+    pub fn named(&self) -> [(&'static str, f64); 5] {
+        [
+            ("contacts", self.contacts),
+            ("near_field", self.near_field),
+            ("bonds", self.bonds),
+            ("gather", self.gather),
+            ("bond_formation", self.bond_formation),
+        ]
+    }
+}
+
 /// Adds the time since `mark` to `stage` and moves the mark to now.
 fn lap(stage: &mut f64, mark: &mut Instant) {
     let now = Instant::now();

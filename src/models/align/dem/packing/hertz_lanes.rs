@@ -21,6 +21,8 @@ use nalgebra::Vector3;
 use super::Load;
 use crate::models::align::dem::contacts::ContactLaw;
 use crate::neighbor::NeighborList;
+#[cfg(target_arch = "x86_64")]
+use crate::numerics::lanes::transpose4;
 
 /// Adds particle i's Hertz contacts with its listed neighbours to `load` (net force,
 /// summed stiffness, largest overlap, particle contacts), as [`super::gather`] adds those that
@@ -80,7 +82,7 @@ unsafe fn add_particle_contacts_avx(
     for four in listed.chunks(4) {
         let j = [0, 1, 2, 3].map(|k| four.get(k).map_or(i, |&j| j as usize));
         // SAFETY (this and the calls below): the processor has AVX.
-        let within = unsafe { within_reach(&own, gather(position, radius, j)) };
+        let within = unsafe { within_reach(&own, load_four(position, radius, j)) };
         for (k, &j) in j.iter().enumerate() {
             pending[waiting] = j;
             waiting += (within >> k) & 1;
@@ -134,7 +136,7 @@ unsafe fn add_four(
 ) {
     let j = [0, 1, 2, 3].map(|k| entries.get(k).copied().unwrap_or(own.index));
     // SAFETY: the processor has AVX.
-    let (rows, overlap, kept) = unsafe { four_entries(own, gather(position, radius, j)) };
+    let (rows, overlap, kept) = unsafe { four_entries(own, load_four(position, radius, j)) };
     for row in rows {
         acc.rows = _mm256_sub_pd(acc.rows, row);
     }
@@ -171,7 +173,7 @@ struct Four {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 #[inline]
-unsafe fn gather(position: &[Vector3<f64>], radius: &[f64], j: [usize; 4]) -> Four {
+unsafe fn load_four(position: &[Vector3<f64>], radius: &[f64], j: [usize; 4]) -> Four {
     let p = j.map(|j| &position[j]);
     Four {
         x: _mm256_set_pd(p[3].x, p[2].x, p[1].x, p[0].x),
@@ -250,17 +252,7 @@ unsafe fn four_entries(own: &Own, q: Four) -> ([__m256d; 4], __m256d, __m256d) {
     let (fx, fy, fz) = (along(dx), along(dy), along(dz));
     let minus_k = _mm256_and_pd(kept, _mm256_xor_pd(stiffness, minus));
     // rows (f n_x, f n_y, f n_z, −k) of entries 0–3
-    let (a, b) = (_mm256_unpacklo_pd(fx, fy), _mm256_unpackhi_pd(fx, fy));
-    let (c, d) = (
-        _mm256_unpacklo_pd(fz, minus_k),
-        _mm256_unpackhi_pd(fz, minus_k),
-    );
-    let rows = [
-        _mm256_permute2f128_pd::<0x20>(a, c),
-        _mm256_permute2f128_pd::<0x20>(b, d),
-        _mm256_permute2f128_pd::<0x31>(a, c),
-        _mm256_permute2f128_pd::<0x31>(b, d),
-    ];
+    let rows = unsafe { transpose4([fx, fy, fz, minus_k]) };
     (rows, _mm256_and_pd(kept, overlap), kept)
 }
 
