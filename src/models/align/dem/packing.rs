@@ -52,6 +52,10 @@ const MAX_STEPS: usize = 2_000_000;
 /// particle, unit masses) in overlap removal and relaxation, and in settling below
 /// `Numerics::large_bed_from` particles.
 const FIRE_STEP: f64 = 0.3;
+/// Below `Numerics::large_bed_from` particles, each backward-Euler step of the overdamped
+/// release is solved until its largest net force (contacts plus anchor) is below this fraction
+/// of its value at the step's start.
+const STEP_REDUCTION: f64 = 1e-2;
 
 /// A settled packing in reduced units (length R_av).
 #[derive(Debug, Clone)]
@@ -86,7 +90,9 @@ impl Packing {
         let overdamped = n.release_scheme == ReleaseScheme::Overdamped;
         (packing.steps[2], work[2]) = match stages.settling.scheme {
             SettlingScheme::Fire if overdamped => {
-                packing.release(&stages, n.release_step, n.overlap_tolerance)?
+                let large = packing.radius.len() >= n.large_bed_from;
+                let reduction = if large { n.release_reduction } else { STEP_REDUCTION };
+                packing.release(&stages, n.release_step, reduction, n.overlap_tolerance)?
             }
             // the source's Heun steps are the overdamped motion itself
             _ => packing.flow(&stages.law, &stages.settling, stages.relax, |s| {

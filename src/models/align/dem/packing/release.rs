@@ -27,10 +27,6 @@ use super::{
 use crate::models::align::dem::contacts::Container;
 use crate::neighbor::NeighborList;
 
-/// Each backward-Euler step is solved until the largest net force (contacts plus anchor) is
-/// below this fraction of its value at the step's start.
-const STEP_REDUCTION: f64 = 1e-2;
-
 /// Largest displacement (R_av) of the finite difference that measures the curvature along a
 /// search direction: far below any overlap that matters, far above round-off.
 const PROBE_MOVE: f64 = 1e-6;
@@ -51,13 +47,15 @@ impl Anchor {
 
 impl Packing {
     /// Backward-Euler steps of γ ẋ = F (the `relax` stage's forces, no settling force) until
-    /// the largest overlap is below `tolerance`; `step` is h k_max. Returns the force
-    /// evaluations and what the contact sums cost (the last evaluation at the released
-    /// positions).
+    /// the largest overlap is below `tolerance`; `step` is h k_max, and each step is solved
+    /// until its largest net force is below `reduction` times its value at the step's start.
+    /// Returns the force evaluations and what the contact sums cost (the last evaluation at
+    /// the released positions).
     pub(super) fn release(
         &mut self,
         stages: &Stages,
         step: f64,
+        reduction: f64,
         tolerance: f64,
     ) -> Result<(usize, ContactWork), String> {
         let Packing {
@@ -100,7 +98,7 @@ impl Packing {
             }
             anchor.position.copy_from_slice(position);
             anchor.stiffness = max_stiffness / step;
-            let target = STEP_REDUCTION * max_force;
+            let target = reduction * max_force;
             // the forces just evaluated are the step's start: the anchor pulls with zero there
             solver.minimize(position, &loads, container, &anchor, target, &mut work)?;
         }
@@ -219,7 +217,7 @@ mod tests {
     use super::*;
     use crate::materials::MaterialDb;
     use crate::models::align::dem::contacts::{ContactLaw, Container};
-    use crate::models::align::dem::packing::{FlowStatus, Repulsion, Settling};
+    use crate::models::align::dem::packing::{FlowStatus, Repulsion, Settling, STEP_REDUCTION};
     use crate::models::align::{AlignParams, SettlingScheme};
     use nalgebra::UnitQuaternion;
 
@@ -324,7 +322,7 @@ mod tests {
         let (_, inertial_work) = released(&stages.settling);
         let apart = |step: f64| {
             let mut bed = loaded.clone();
-            let (_, work) = bed.release(&stages, step, n.overlap_tolerance).unwrap();
+            let (_, work) = bed.release(&stages, step, STEP_REDUCTION, n.overlap_tolerance).unwrap();
             let sum: f64 = (bed.position.iter().zip(&explicit.position))
                 .map(|(p, q)| (p - q).norm_squared())
                 .sum();
