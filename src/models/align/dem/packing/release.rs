@@ -10,8 +10,10 @@
 //!
 //!   x' = argmin_x  U(x) + |x − x₀|² / (2h)        (γ = 1; U: the Hertz energy),
 //!
-//! are stable at any h, and the minimizer of each step is the same whichever solver finds it:
-//! each is found by nonlinear conjugate gradients (2.2–2.4× fewer force evaluations than FIRE
+//! are stable at any h, and the minimizer of each step is the same whichever solver finds it
+//! (to the solve's tolerance: 1 % of the step's starting force, 10 % in large beds, where
+//! paired seeds show no change in the bed beyond their noise): each is found by nonlinear
+//! conjugate gradients (2.2–2.4× fewer force evaluations than FIRE
 //! at N = 10³ and 10⁴: results/bench/README.md, "An overdamped release"). The anchor's
 //! stiffness 1/h bounds the condition number by 1 + h k_max. h = `release_step`/k_max, with
 //! k_max the largest summed contact stiffness at the step's start (the step grows as the
@@ -300,7 +302,8 @@ mod tests {
     /// independent integrations of γ ẋ = F. The released positions converge to the explicit
     /// ones at first order in the step (backward Euler's order: the distance falls ~10× per
     /// 10× shorter step), and at the default step the bed keeps the explicit release's contact
-    /// network, which the inertial release largely loses.
+    /// network, which the inertial release largely loses; solved to the large beds' looser
+    /// tolerance, it stays as close.
     #[test]
     fn the_overdamped_release_converges_to_explicit_overdamped_steps() {
         let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
@@ -320,14 +323,15 @@ mod tests {
             &loaded.radius,
         ));
         let (_, inertial_work) = released(&stages.settling);
-        let apart = |step: f64| {
+        let apart_solved_to = |step: f64, reduction: f64| {
             let mut bed = loaded.clone();
-            let (_, work) = bed.release(&stages, step, STEP_REDUCTION, n.overlap_tolerance).unwrap();
+            let (_, work) = bed.release(&stages, step, reduction, n.overlap_tolerance).unwrap();
             let sum: f64 = (bed.position.iter().zip(&explicit.position))
                 .map(|(p, q)| (p - q).norm_squared())
                 .sum();
             ((sum / bed.position.len() as f64).sqrt(), work)
         };
+        let apart = |step: f64| apart_solved_to(step, STEP_REDUCTION);
         let (near, _) = apart(10.0);
         let (mid, _) = apart(100.0);
         let (far, default_work) = apart(n.release_step);
@@ -339,6 +343,15 @@ mod tests {
         assert!(
             (kept - reference).abs() < 0.02 * reference,
             "{kept} vs {reference}"
+        );
+        // the large beds' looser solves stay as close to the explicit path as the time
+        // discretization itself, and keep its contacts
+        let (loose, loose_work) = apart_solved_to(n.release_step, n.release_reduction);
+        assert!(loose < 1.5 * far, "{loose} vs {far}");
+        let kept_loosely = contacts(loose_work);
+        assert!(
+            (kept_loosely - reference).abs() < 0.02 * reference,
+            "{kept_loosely} vs {reference}"
         );
         let inertial = contacts(inertial_work);
         assert!(
