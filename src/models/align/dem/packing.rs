@@ -91,7 +91,11 @@ impl Packing {
         (packing.steps[2], work[2]) = match stages.settling.scheme {
             SettlingScheme::Fire if overdamped => {
                 let large = packing.radius.len() >= n.large_bed_from;
-                let reduction = if large { n.release_reduction } else { STEP_REDUCTION };
+                let reduction = if large {
+                    n.release_reduction
+                } else {
+                    STEP_REDUCTION
+                };
                 packing.release(&stages, n.release_step, reduction, n.overlap_tolerance)?
             }
             // the source's Heun steps are the overdamped motion itself

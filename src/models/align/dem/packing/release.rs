@@ -325,7 +325,9 @@ mod tests {
         let (_, inertial_work) = released(&stages.settling);
         let apart_solved_to = |step: f64, reduction: f64| {
             let mut bed = loaded.clone();
-            let (_, work) = bed.release(&stages, step, reduction, n.overlap_tolerance).unwrap();
+            let (_, work) = bed
+                .release(&stages, step, reduction, n.overlap_tolerance)
+                .unwrap();
             let sum: f64 = (bed.position.iter().zip(&explicit.position))
                 .map(|(p, q)| (p - q).norm_squared())
                 .sum();
