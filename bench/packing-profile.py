@@ -133,4 +133,7 @@ if __name__ == "__main__":
     if len(sys.argv) < 2:
         sys.exit(__doc__)
     for name in sys.argv[1:]:
-        profile(name)
+        try:
+            profile(name)
+        except (OSError, struct.error, ValueError) as error:
+            sys.exit(f"{name}: not a readable magopt packing file ({error})")
