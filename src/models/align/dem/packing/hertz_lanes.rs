@@ -267,8 +267,9 @@ mod tests {
 
     /// Where the processor has AVX, the AVX sums are the portable form's bit for bit: for a
     /// dense jumble of three sizes of spheres (rows of every length, and so remainders of 0–3
-    /// entries, some rows spanning several blocks), with and without a contact skin (contacts emitted at a gap), starting from
-    /// loads that are not zero (the settling force, a −0 among them).
+    /// entries, some rows spanning several blocks), with and without a contact skin (contacts
+    /// emitted at a gap), starting from loads that are not zero (the settling force, a −0
+    /// among them).
     #[test]
     fn avx_and_portable_sums_are_identical() {
         #[cfg(target_arch = "x86_64")]
