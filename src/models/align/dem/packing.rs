@@ -39,8 +39,11 @@ use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
 mod hertz_lanes;
+mod newton;
 mod release;
 pub mod store;
+
+use release::StepSolver;
 
 /// Largest displacement of any particle in one packing step, R_av.
 const MAX_MOVE: f64 = 0.05;
@@ -90,13 +93,12 @@ impl Packing {
         let overdamped = n.release_scheme == ReleaseScheme::Overdamped;
         (packing.steps[2], work[2]) = match stages.settling.scheme {
             SettlingScheme::Fire if overdamped => {
-                let large = packing.radius.len() >= n.large_bed_from;
-                let reduction = if large {
-                    n.release_reduction
+                let solve = if packing.radius.len() >= n.large_bed_from {
+                    (n.release_reduction, StepSolver::Newton)
                 } else {
-                    STEP_REDUCTION
+                    (STEP_REDUCTION, StepSolver::ConjugateGradients)
                 };
-                packing.release(&stages, n.release_step, reduction, n.overlap_tolerance)?
+                packing.release(&stages, n.release_step, solve, n.overlap_tolerance)?
             }
             // the source's Heun steps are the overdamped motion itself
             _ => packing.flow(&stages.law, &stages.settling, stages.relax, |s| {
@@ -574,12 +576,21 @@ fn ordered_update<T: Send, const K: usize>(
     items: &mut [T],
     term: impl Fn(usize, &mut T) -> ([f64; K], f64) + Sync,
 ) -> ([f64; K], f64) {
+    ordered_update_in(SUM_CHUNK, items, term)
+}
+
+/// [`ordered_update`] with its sums' chunk `size` (the chunk fixes the bits).
+fn ordered_update_in<T: Send, const K: usize>(
+    size: usize,
+    items: &mut [T],
+    term: impl Fn(usize, &mut T) -> ([f64; K], f64) + Sync,
+) -> ([f64; K], f64) {
     let partial: Vec<([f64; K], f64)> = items
-        .par_chunks_mut(SUM_CHUNK)
+        .par_chunks_mut(size)
         .enumerate()
         .map(|(c, chunk)| {
             (chunk.iter_mut().enumerate()).fold(([0.0; K], 0.0), |(acc, top), (k, item)| {
-                let (terms, value) = term(c * SUM_CHUNK + k, item);
+                let (terms, value) = term(c * size + k, item);
                 (add_sums(acc, terms), f64::max(top, value))
             })
         })

@@ -22,6 +22,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::newton::Newton;
 use super::{
     as_gathered, ordered_sums, ordered_update, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE,
     MAX_STEPS, SKIN,
@@ -29,20 +30,30 @@ use super::{
 use crate::models::align::dem::contacts::Container;
 use crate::neighbor::NeighborList;
 
+/// How each backward-Euler step of the release is solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum StepSolver {
+    /// Nonlinear conjugate gradients, two force evaluations per iteration.
+    ConjugateGradients,
+    /// Newton steps on stored contact stiffnesses (`newton`), the conjugate gradients taking
+    /// over a step they do not finish.
+    Newton,
+}
+
 /// Largest displacement (R_av) of the finite difference that measures the curvature along a
 /// search direction: far below any overlap that matters, far above round-off.
 const PROBE_MOVE: f64 = 1e-6;
 
 /// Springs of stiffness `stiffness` that tie each particle to its position at the start of a
 /// backward-Euler step (the step's |x − x₀|²/(2h) term, h = 1/stiffness).
-struct Anchor {
-    position: Vec<Vector3<f64>>,
-    stiffness: f64,
+pub(super) struct Anchor {
+    pub(super) position: Vec<Vector3<f64>>,
+    pub(super) stiffness: f64,
 }
 
 impl Anchor {
     /// Adds particle i's spring force −c (x − x₀) to its net force.
-    fn pull(&self, i: usize, position: &[Vector3<f64>], force: &mut Load) {
+    pub(super) fn pull(&self, i: usize, position: &[Vector3<f64>], force: &mut Load) {
         force.0 -= self.stiffness * (position[i] - self.position[i]);
     }
 }
@@ -57,7 +68,7 @@ impl Packing {
         &mut self,
         stages: &Stages,
         step: f64,
-        reduction: f64,
+        (reduction, step_solver): (f64, StepSolver),
         tolerance: f64,
     ) -> Result<(usize, ContactWork), String> {
         let Packing {
@@ -74,6 +85,7 @@ impl Packing {
             radius,
         };
         let mut solver = ConjugateGradients::new(position.len());
+        let mut newton = (step_solver == StepSolver::Newton).then(|| Newton::new(position.len()));
         let mut work = ContactWork::default();
         let mut anchor = Anchor {
             position: position.clone(),
@@ -102,7 +114,21 @@ impl Packing {
             anchor.stiffness = max_stiffness / step;
             let target = reduction * max_force;
             // the forces just evaluated are the step's start: the anchor pulls with zero there
-            solver.minimize(position, &loads, container, &anchor, target, &mut work)?;
+            let solved = newton.as_mut().is_some_and(|newton| {
+                let ConjugateGradients { list, force, .. } = &mut solver;
+                let problem = (&loads, &*container, &anchor);
+                newton.minimize(
+                    position,
+                    problem,
+                    (list, force),
+                    target,
+                    max_force,
+                    &mut work,
+                )
+            });
+            if !solved {
+                solver.minimize(position, &loads, container, &anchor, target, &mut work)?;
+            }
         }
     }
 }
@@ -127,10 +153,22 @@ impl ConjugateGradients {
             // the release moves little: a list rebuilt on the displacements' spread
             list: NeighborList::rebuilt_on_spread(SKIN),
             force: vec![zero; n],
-            probe: vec![zero; n],
-            trial: vec![Vector3::zeros(); n],
-            direction: vec![Vector3::zeros(); n],
-            previous: vec![Vector3::zeros(); n],
+            // the rest is allocated on first use (a release solved by Newton steps may need none)
+            probe: Vec::new(),
+            trial: Vec::new(),
+            direction: Vec::new(),
+            previous: Vec::new(),
+        }
+    }
+
+    /// Allocates the search's vectors, once.
+    fn reserve(&mut self) {
+        let n = self.force.len();
+        if self.trial.len() != n {
+            self.probe = self.force.clone();
+            self.trial = vec![Vector3::zeros(); n];
+            self.direction = vec![Vector3::zeros(); n];
+            self.previous = vec![Vector3::zeros(); n];
         }
     }
 
@@ -157,6 +195,7 @@ impl ConjugateGradients {
         target: f64,
         work: &mut ContactWork,
     ) -> Result<(), String> {
+        self.reserve();
         let n = position.len();
         // the net forces with the anchor, in one pass; returns the largest
         let mut net_force = |at: &[Vector3<f64>], force: &mut [Load], list: &mut _| {
@@ -230,7 +269,7 @@ mod tests {
     fn one_release_step_is_the_backward_euler_step_of_the_overdamped_motion() {
         let (e_star, overlap0) = (0.55, 0.05);
         let hertz = |d: f64| 4.0 / 3.0 * e_star * d.powf(1.5);
-        let mut packing = Packing {
+        let packing = Packing {
             radius: vec![1.0],
             position: vec![Vector3::new(2.0, 2.0, 1.0 - overlap0)],
             orientation: vec![UnitQuaternion::identity()],
@@ -260,27 +299,6 @@ mod tests {
             position: packing.position.clone(),
             stiffness: 1.0 / h,
         };
-        let mut work = ContactWork::default();
-        let mut solver = ConjugateGradients::new(1);
-        let (list, force) = (&mut solver.list, &mut solver.force);
-        loads.evaluate(
-            &packing.position,
-            &packing.container,
-            list,
-            force,
-            &mut work,
-            as_gathered,
-        );
-        solver
-            .minimize(
-                &mut packing.position,
-                &loads,
-                &packing.container,
-                &anchor,
-                1e-12,
-                &mut work,
-            )
-            .unwrap();
         let (mut lo, mut hi) = (0.0, overlap0);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
@@ -290,20 +308,49 @@ mod tests {
                 lo = mid;
             }
         }
-        let overlap = 1.0 - packing.position[0].z;
-        assert!((overlap - lo).abs() < 1e-9, "{overlap} vs {lo}");
+        let mut work = ContactWork::default();
+        let container = &packing.container;
+        for step_solver in [StepSolver::ConjugateGradients, StepSolver::Newton] {
+            let mut position = packing.position.clone();
+            let mut solver = ConjugateGradients::new(1);
+            let (list, force) = (&mut solver.list, &mut solver.force);
+            let [largest, ..] =
+                loads.evaluate(&position, container, list, force, &mut work, as_gathered);
+            if step_solver == StepSolver::Newton {
+                let problem = (&loads, container, &anchor);
+                let mut newton = Newton::new(1);
+                let done = newton.minimize(
+                    &mut position,
+                    problem,
+                    (list, force),
+                    1e-12,
+                    largest,
+                    &mut work,
+                );
+                assert!(done);
+            } else {
+                let target = 1e-12;
+                (solver.minimize(&mut position, &loads, container, &anchor, target, &mut work))
+                    .unwrap();
+            }
+            let overlap = 1.0 - position[0].z;
+            assert!(
+                (overlap - lo).abs() < 1e-9,
+                "{step_solver:?}: {overlap} vs {lo}"
+            );
+        }
+        let overlap = lo;
         // the step is implicit: it stops short of the explicit step's overshoot
         assert!(overlap > 0.0 && overlap < overlap0);
     }
 
     /// The same loaded bed released by backward-Euler steps (conjugate gradients inside each)
-    /// and by the
-    /// explicit overdamped motion (Heun steps of 0.8/k_max, the source's scheme): two
+    /// and by the explicit overdamped motion (Heun steps of 0.8/k_max, the source's scheme): two
     /// independent integrations of γ ẋ = F. The released positions converge to the explicit
     /// ones at first order in the step (backward Euler's order: the distance falls ~10× per
     /// 10× shorter step), and at the default step the bed keeps the explicit release's contact
     /// network, which the inertial release largely loses; solved to the large beds' looser
-    /// tolerance, it stays as close.
+    /// tolerance, by either solver, it stays as close.
     #[test]
     fn the_overdamped_release_converges_to_explicit_overdamped_steps() {
         let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
@@ -323,17 +370,18 @@ mod tests {
             &loaded.radius,
         ));
         let (_, inertial_work) = released(&stages.settling);
-        let apart_solved_to = |step: f64, reduction: f64| {
+        let apart_solved_to = |step: f64, solve: (f64, StepSolver)| {
             let mut bed = loaded.clone();
             let (_, work) = bed
-                .release(&stages, step, reduction, n.overlap_tolerance)
+                .release(&stages, step, solve, n.overlap_tolerance)
                 .unwrap();
             let sum: f64 = (bed.position.iter().zip(&explicit.position))
                 .map(|(p, q)| (p - q).norm_squared())
                 .sum();
             ((sum / bed.position.len() as f64).sqrt(), work)
         };
-        let apart = |step: f64| apart_solved_to(step, STEP_REDUCTION);
+        let apart =
+            |step: f64| apart_solved_to(step, (STEP_REDUCTION, StepSolver::ConjugateGradients));
         let (near, _) = apart(10.0);
         let (mid, _) = apart(100.0);
         let (far, default_work) = apart(n.release_step);
@@ -348,13 +396,16 @@ mod tests {
         );
         // the large beds' looser solves stay as close to the explicit path as the time
         // discretization itself, and keep its contacts
-        let (loose, loose_work) = apart_solved_to(n.release_step, n.release_reduction);
-        assert!(loose < 1.5 * far, "{loose} vs {far}");
-        let kept_loosely = contacts(loose_work);
-        assert!(
-            (kept_loosely - reference).abs() < 0.02 * reference,
-            "{kept_loosely} vs {reference}"
-        );
+        for solver in [StepSolver::ConjugateGradients, StepSolver::Newton] {
+            let solve = (n.release_reduction, solver);
+            let (loose, loose_work) = apart_solved_to(n.release_step, solve);
+            assert!(loose < 1.5 * far, "{solver:?}: {loose} vs {far}");
+            let kept_loosely = contacts(loose_work);
+            assert!(
+                (kept_loosely - reference).abs() < 0.02 * reference,
+                "{solver:?}: {kept_loosely} vs {reference}"
+            );
+        }
         let inertial = contacts(inertial_work);
         assert!(
             inertial < 0.8 * reference,

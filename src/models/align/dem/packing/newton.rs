@@ -1,0 +1,360 @@
+//! Newton steps for the release's backward-Euler steps (docs/align.md, "The release"), used
+//! from `Numerics::large_bed_from` particles on. Each Newton step linearizes the net force
+//! (Hertz contacts, surfaces, the anchor) about the current positions, stores each touching
+//! contact's stiffness once, and solves H p = F by linear conjugate gradients on the stored
+//! stiffnesses; the true forces are evaluated again only after the step.
+//!
+//! Why: nonlinear conjugate gradients pay two force evaluations per iteration (the step and a
+//! curvature probe), each a walk over the whole neighbour list. A product with the stored
+//! stiffnesses walks the touching pairs alone, about a third of an evaluation. The minimizer
+//! of each backward-Euler step is the same whichever solver finds it, to the solve's tolerance.
+//!
+//! H keeps each contact's normal stiffness dF/dδ and drops the geometric term F/r across the
+//! normal (a pushed pair that slides sideways opens, which softens those directions): without
+//! it H is positive definite (the anchor adds c I), as the conjugate gradients need; with it
+//! near-floppy particles made steps of tens of radii. The stop rule uses the true forces, so
+//! the approximation costs Newton steps, not accuracy.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::release::Anchor;
+use super::{ordered_update_in, ContactWork, Load, Loads, MAX_MOVE};
+use crate::models::align::dem::contacts::Container;
+use crate::neighbor::NeighborList;
+
+/// Partner code of a surface contact in a [`Spring`] (its partner does not move).
+const FIXED: u32 = u32::MAX;
+
+/// Each Newton step's linear solve stops once its largest residual is below this fraction of
+/// the largest net force it started from (an inexact Newton method's forcing term: a tighter
+/// solve is wasted on a linear model that the step's opening and closing contacts spoil).
+const FORCING: f64 = 0.3;
+
+/// The linear solve's residual target as a fraction of the step's: the linear model stops a
+/// little below it, so that the last Newton step usually meets the true target.
+const INNER: f64 = 0.5;
+
+/// Newton steps after which a backward-Euler step is handed to the nonlinear conjugate
+/// gradients (at N = 10⁴ the most any step took was 52; the median 6).
+const NEWTON_LIMIT: usize = 100;
+
+/// Particles per chunk of the stored stiffnesses and of the solve's sums (the chunk fixes the
+/// sums' bits). Small enough that the chunks of a bed of 10⁴ spread evenly over the threads.
+const CHUNK: usize = 256;
+
+/// Iterations after which a linear solve stops short (a bound, far above the few dozen a solve
+/// takes).
+const LINEAR_LIMIT: usize = 1000;
+
+/// One contact of a linearization: its stiffness k acting on the relative displacement
+/// Δ = d_i − d_j (d_j = 0 for a surface) adds k (n·Δ) n to (H d)_i. Single precision: the
+/// product only steers the solve, whose stop rule uses the true forces.
+#[derive(Debug, Clone, Copy)]
+struct Spring {
+    partner: u32,
+    normal: [f32; 3],
+    stiffness: f32,
+}
+
+impl Spring {
+    fn new(partner: u32, normal: Vector3<f64>, stiffness: f64) -> Self {
+        Self {
+            partner,
+            normal: normal.map(|x| x as f32).into(),
+            stiffness: stiffness as f32,
+        }
+    }
+}
+
+/// H at one set of positions, stored as each particle's touching contacts in chunks of
+/// `CHUNK` particles (products summed in chunk order: the same bits at any thread count).
+#[derive(Debug, Default)]
+struct Stiffness {
+    chunks: Vec<Chunk>,
+    anchor: f64,
+}
+
+#[derive(Debug, Default)]
+struct Chunk {
+    springs: Vec<Spring>,
+    /// End of each particle's springs in `springs`.
+    end: Vec<u32>,
+}
+
+impl Stiffness {
+    /// Stores the touching contacts at `position` (`list` up to date there) and the anchor's
+    /// stiffness.
+    fn linearize(
+        &mut self,
+        loads: &Loads,
+        position: &[Vector3<f64>],
+        container: &Container,
+        list: &NeighborList<3>,
+        anchor: f64,
+    ) {
+        let n = position.len();
+        self.anchor = anchor;
+        self.chunks.resize_with(n.div_ceil(CHUNK), Chunk::default);
+        let (law, radius, repulsion) = (loads.law, loads.radius, loads.repulsion);
+        self.chunks
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                let Chunk { springs, end } = chunk;
+                springs.clear();
+                end.clear();
+                for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                    let mut store = |partner, contact: super::super::contacts::Contact| {
+                        let (_, stiffness) = repulsion.force_and_stiffness(&contact);
+                        if stiffness > 0.0 {
+                            springs.push(Spring::new(partner, contact.normal, stiffness));
+                        }
+                    };
+                    law.particle_contacts_of(i, position, radius, list, &mut store);
+                    law.wall_contacts_of(i, position, radius, container, |_, c| store(FIXED, c));
+                    end.push(springs.len() as u32);
+                }
+            });
+    }
+
+    /// The conjugate gradients' updates that need no sum first, in one pass: with the
+    /// residuals r, the last step length α and the coefficient β, p ← p + α d, then
+    /// d ← r + β d and q ← H r + β q, which is H d (H is linear); returns d·q. One pass
+    /// instead of three: at 10⁴ particles each join on the thread pool costs about as much as
+    /// a product.
+    fn conjugate(&self, residual: &[Vector3<f64>], (alpha, beta): (f64, f64), cg: Cg) -> f64 {
+        let Cg {
+            step,
+            direction,
+            product,
+        } = cg;
+        let partial: Vec<f64> = (self.chunks.par_iter())
+            .zip(step.par_chunks_mut(CHUNK))
+            .zip(direction.par_chunks_mut(CHUNK))
+            .zip(product.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(c, (((chunk, step), direction), product))| {
+                let mut start = 0;
+                let mut curvature = 0.0;
+                let rows = (step.iter_mut().zip(direction).zip(product)).zip(&chunk.end);
+                for (k, (((p, d), q), &end)) in rows.enumerate() {
+                    let ri = residual[c * CHUNK + k];
+                    let mut h = self.anchor * ri;
+                    for s in &chunk.springs[start..end as usize] {
+                        let delta = match s.partner {
+                            FIXED => ri,
+                            j => ri - residual[j as usize],
+                        };
+                        let n = Vector3::from(s.normal).cast::<f64>();
+                        h += (f64::from(s.stiffness) * n.dot(&delta)) * n;
+                    }
+                    *p += alpha * *d;
+                    *d = ri + beta * *d;
+                    *q = h + beta * *q;
+                    curvature += d.dot(q);
+                    start = end as usize;
+                }
+                curvature
+            })
+            .collect();
+        partial.into_iter().fold(0.0, |a, b| a + b)
+    }
+}
+
+/// The per-particle vectors of a linear conjugate-gradient solve besides the residual: the
+/// Newton step p, the search direction d and its product q = H d.
+struct Cg<'a> {
+    step: &'a mut [Vector3<f64>],
+    direction: &'a mut [Vector3<f64>],
+    product: &'a mut [Vector3<f64>],
+}
+
+/// Newton's method with linear conjugate gradients inside, on one backward-Euler step.
+pub(super) struct Newton {
+    stiffness: Stiffness,
+    residual: Vec<Vector3<f64>>,
+    step: Vec<Vector3<f64>>,
+    direction: Vec<Vector3<f64>>,
+    product: Vec<Vector3<f64>>,
+}
+
+impl Newton {
+    pub(super) fn new(n: usize) -> Self {
+        Self {
+            stiffness: Stiffness::default(),
+            residual: vec![Vector3::zeros(); n],
+            step: vec![Vector3::zeros(); n],
+            direction: vec![Vector3::zeros(); n],
+            product: vec![Vector3::zeros(); n],
+        }
+    }
+
+    /// Moves `position` towards the minimizer of U + anchor until the largest net force is
+    /// below `target`, starting from `force`, the net forces at `position` (`list` up to date
+    /// there), whose largest is `max_force`; `force` and `list` follow the moves. Returns
+    /// whether it got there within `NEWTON_LIMIT` steps.
+    pub(super) fn minimize(
+        &mut self,
+        position: &mut [Vector3<f64>],
+        (loads, container, anchor): (&Loads, &Container, &Anchor),
+        (list, force): (&mut NeighborList<3>, &mut [Load]),
+        target: f64,
+        mut max_force: f64,
+        work: &mut ContactWork,
+    ) -> bool {
+        for _ in 0..NEWTON_LIMIT {
+            if max_force < target {
+                return true;
+            }
+            let (c, at) = (anchor.stiffness, &*position);
+            self.stiffness.linearize(loads, at, container, list, c);
+            self.solve_linear(force, (INNER * target).max(FORCING * max_force));
+            // never moving a particle further than MAX_MOVE (the whole step scaled)
+            let reach = (self.step.par_iter())
+                .map(|p| p.norm())
+                .reduce(|| 0.0, f64::max);
+            let scale = (MAX_MOVE / reach).min(1.0);
+            (position.par_iter_mut().zip(&self.step)).for_each(|(x, p)| *x += scale * p);
+            let at = &*position;
+            let then = |i, f: &mut Load| anchor.pull(i, at, f);
+            max_force = loads.evaluate(at, container, list, force, work, then)[0];
+        }
+        max_force < target
+    }
+
+    /// Solves H p = F into `self.step` until the largest residual is below `target`, until H
+    /// stops being positive along the search direction (round-off in a floppy bed), or for at
+    /// most `LINEAR_LIMIT` iterations (the Newton step then takes the solve as it stands).
+    fn solve_linear(&mut self, force: &[Load], target: f64) {
+        let ([mut rr], _) = ordered_update_in(CHUNK, &mut self.residual, |i, r| {
+            *r = force[i].0;
+            ([r.norm_squared()], 0.0)
+        });
+        self.step.par_iter_mut().for_each(|p| *p = Vector3::zeros());
+        let (mut alpha, mut beta) = (0.0, 0.0);
+        for _ in 0..LINEAR_LIMIT {
+            let cg = Cg {
+                step: &mut self.step,
+                direction: &mut self.direction,
+                product: &mut self.product,
+            };
+            let curvature = (self.stiffness).conjugate(&self.residual, (alpha, beta), cg);
+            // H not positive along d (or a NaN curvature): keep the step so far
+            if curvature.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                return;
+            }
+            alpha = rr / curvature;
+            let q = &self.product;
+            let ([next], largest) = ordered_update_in(CHUNK, &mut self.residual, |i, r| {
+                *r -= alpha * q[i];
+                ([r.norm_squared()], r.norm())
+            });
+            if largest < target {
+                break;
+            }
+            beta = next / rr;
+            rr = next;
+        }
+        (self.step.par_iter_mut().zip(&self.direction)).for_each(|(p, d)| *p += alpha * d);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::MaterialDb;
+    use crate::models::align::dem::packing::{as_gathered, Packing, SKIN};
+    use crate::models::align::AlignParams;
+
+    /// The stored stiffnesses' product is the derivative of the net forces along d,
+    /// (F(x) − F(x + ε d))/ε, on a loaded bed of 200 particles (anchor included), less the
+    /// geometric term H drops: Σ_j (F_ij/r_ij)(Δ − (n·Δ) n) over the touching pairs, summed
+    /// here pair by pair over every pair of the bed.
+    #[test]
+    fn the_stored_stiffness_is_the_derivative_of_the_forces_less_the_geometric_term() {
+        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
+        let mut params = AlignParams::paper_defaults(material, 0.0);
+        params.particles = 200;
+        let (bed, stages, _) = Packing::loaded(&params.packing(), 3).unwrap();
+        let (x, radius) = (&bed.position, &bed.radius);
+        let loads = Loads {
+            law: &stages.law,
+            repulsion: stages.relax.repulsion,
+            settling: &stages.settling,
+            down_force: 0.0,
+            radius,
+        };
+        let n = x.len();
+        let mut list = NeighborList::rebuilt_on_spread(SKIN);
+        let zero: Load = (Vector3::zeros(), 0.0, 0.0, 0);
+        let (mut force, mut moved_force) = (vec![zero; n], vec![zero; n]);
+        let mut work = ContactWork::default();
+        let largest = loads.evaluate(
+            x,
+            &bed.container,
+            &mut list,
+            &mut force,
+            &mut work,
+            as_gathered,
+        );
+        let anchor = Anchor {
+            position: x.clone(),
+            stiffness: 1e-3 * largest[1],
+        };
+        let mut newton = Newton::new(n);
+        (newton.stiffness).linearize(&loads, x, &bed.container, &list, anchor.stiffness);
+        let d: Vec<Vector3<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                Vector3::new((1.3 * t).sin(), (2.1 * t).cos(), (0.7 * t + 1.0).sin())
+            })
+            .collect();
+        let zeros = || vec![Vector3::zeros(); n];
+        let (mut step, mut direction, mut product) = (zeros(), zeros(), zeros());
+        let cg = Cg {
+            step: &mut step,
+            direction: &mut direction,
+            product: &mut product,
+        };
+        let curvature = (newton.stiffness).conjugate(&d, (0.0, 0.0), cg);
+        assert_eq!(direction, d);
+        let eps = 1e-7;
+        let moved: Vec<_> = x.iter().zip(&d).map(|(x, d)| x + eps * d).collect();
+        let then = |i, f: &mut Load| anchor.pull(i, &moved, f);
+        loads.evaluate(
+            &moved,
+            &bed.container,
+            &mut list,
+            &mut moved_force,
+            &mut work,
+            then,
+        );
+        let scale = product.iter().map(|p| p.norm()).fold(0.0, f64::max);
+        let mut geometric_terms = 0;
+        for i in 0..n {
+            let mut geometric = Vector3::zeros();
+            for j in (0..n).filter(|&j| j != i) {
+                let (u, delta) = (x[j] - x[i], d[i] - d[j]);
+                let (r, normal) = (u.norm(), u.normalize());
+                let overlap = radius[i] + radius[j] - r;
+                if overlap > 0.0 {
+                    let hertz = stages.law.hertz_prefactor(radius[i], Some(radius[j]));
+                    let pushed = hertz * overlap.powf(1.5);
+                    geometric += pushed / r * (delta - normal.dot(&delta) * normal);
+                    geometric_terms += 1;
+                }
+            }
+            let derivative = (force[i].0 - moved_force[i].0) / eps;
+            let error = (derivative + geometric - product[i]).norm();
+            assert!(
+                error < 1e-4 * scale,
+                "{i}: {derivative:?} vs {:?}",
+                product[i]
+            );
+        }
+        assert!(geometric_terms > n, "{geometric_terms}");
+        let direct: f64 = d.iter().zip(&product).map(|(d, p)| d.dot(p)).sum();
+        assert!(curvature > 0.0 && (curvature - direct).abs() < 1e-9 * direct);
+    }
+}
