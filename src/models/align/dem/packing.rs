@@ -287,6 +287,20 @@ struct Stages {
     relax: Stage,
 }
 
+impl Stages {
+    /// The release's forces on particles of these radii: the relaxation's repulsion, no
+    /// settling force.
+    fn release_loads<'a>(&'a self, radius: &'a [f64]) -> Loads<'a> {
+        Loads {
+            law: &self.law,
+            repulsion: self.relax.repulsion,
+            settling: &self.settling,
+            down_force: 0.0,
+            radius,
+        }
+    }
+}
+
 /// How a packing stage pushes the particles down and moves them.
 struct Settling {
     scheme: SettlingScheme,

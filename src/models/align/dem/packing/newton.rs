@@ -278,13 +278,7 @@ mod tests {
         params.particles = 200;
         let (bed, stages, _) = Packing::loaded(&params.packing(), 3).unwrap();
         let (x, radius) = (&bed.position, &bed.radius);
-        let loads = Loads {
-            law: &stages.law,
-            repulsion: stages.relax.repulsion,
-            settling: &stages.settling,
-            down_force: 0.0,
-            radius,
-        };
+        let loads = stages.release_loads(radius);
         let n = x.len();
         let mut list = NeighborList::rebuilt_on_spread(SKIN);
         let zero: Load = (Vector3::zeros(), 0.0, 0.0, 0);

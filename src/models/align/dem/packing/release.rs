@@ -77,13 +77,7 @@ impl Packing {
             container,
             ..
         } = self;
-        let loads = Loads {
-            law: &stages.law,
-            repulsion: stages.relax.repulsion,
-            settling: &stages.settling,
-            down_force: 0.0,
-            radius,
-        };
+        let loads = stages.release_loads(radius);
         let mut solver = ConjugateGradients::new(position.len());
         let mut newton = (step_solver == StepSolver::Newton).then(|| Newton::new(position.len()));
         let mut work = ContactWork::default();
