@@ -13,8 +13,10 @@
 //! are stable at any h, and the minimizer of each step is the same whichever solver finds it
 //! (to the solve's tolerance: 1 % of the step's starting force, 10 % in large beds, where
 //! paired seeds show no change in the bed beyond their noise): each is found by nonlinear
-//! conjugate gradients (2.2–2.4× fewer force evaluations than FIRE
-//! at N = 10³ and 10⁴: results/bench/README.md, "An overdamped release"). The anchor's
+//! conjugate gradients (2.2–2.4× fewer force evaluations than FIRE at N = 10³ and 10⁴:
+//! results/bench/README.md, "An overdamped release"), in large beds by Newton steps on stored
+//! contact stiffnesses (`newton`; the packing 1.7× faster at 10⁴–10⁵, paired seeds again
+//! within their noise: "Newton steps for the release"). The anchor's
 //! stiffness 1/h bounds the condition number by 1 + h k_max. h = `release_step`/k_max, with
 //! k_max the largest summed contact stiffness at the step's start (the step grows as the
 //! overlaps, and with them the Hertz stiffness, shrink, as an explicit step would).
