@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::release::Anchor;
 use super::{ordered_update_in, ContactWork, Load, Loads, MAX_MOVE};
-use crate::models::align::dem::contacts::Container;
+use crate::models::align::dem::contacts::{Contact, Container};
 use crate::neighbor::NeighborList;
 
 /// Partner code of a surface contact in a [`Spring`] (its partner does not move).
@@ -105,7 +105,7 @@ impl Stiffness {
                 springs.clear();
                 end.clear();
                 for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                    let mut store = |partner, contact: super::super::contacts::Contact| {
+                    let mut store = |partner, contact: Contact| {
                         let (_, stiffness) = repulsion.force_and_stiffness(&contact);
                         if stiffness > 0.0 {
                             springs.push(Spring::new(partner, contact.normal, stiffness));
@@ -128,8 +128,9 @@ impl Stiffness {
             step,
             direction,
             product,
+            partial,
         } = cg;
-        let partial: Vec<f64> = (self.chunks.par_iter())
+        (self.chunks.par_iter())
             .zip(step.par_chunks_mut(CHUNK))
             .zip(direction.par_chunks_mut(CHUNK))
             .zip(product.par_chunks_mut(CHUNK))
@@ -157,17 +158,19 @@ impl Stiffness {
                 }
                 curvature
             })
-            .collect();
-        partial.into_iter().fold(0.0, |a, b| a + b)
+            .collect_into_vec(partial);
+        partial.iter().fold(0.0, |a, b| a + b)
     }
 }
 
 /// The per-particle vectors of a linear conjugate-gradient solve besides the residual: the
-/// Newton step p, the search direction d and its product q = H d.
+/// Newton step p, the search direction d and its product q = H d; and the chunks' partial
+/// sums of d·q (kept between iterations: no allocation per product).
 struct Cg<'a> {
     step: &'a mut [Vector3<f64>],
     direction: &'a mut [Vector3<f64>],
     product: &'a mut [Vector3<f64>],
+    partial: &'a mut Vec<f64>,
 }
 
 /// Newton's method with linear conjugate gradients inside, on one backward-Euler step.
@@ -177,6 +180,7 @@ pub(super) struct Newton {
     step: Vec<Vector3<f64>>,
     direction: Vec<Vector3<f64>>,
     product: Vec<Vector3<f64>>,
+    partial: Vec<f64>,
 }
 
 impl Newton {
@@ -187,6 +191,7 @@ impl Newton {
             step: vec![Vector3::zeros(); n],
             direction: vec![Vector3::zeros(); n],
             product: vec![Vector3::zeros(); n],
+            partial: Vec::new(),
         }
     }
 
@@ -238,6 +243,7 @@ impl Newton {
                 step: &mut self.step,
                 direction: &mut self.direction,
                 product: &mut self.product,
+                partial: &mut self.partial,
             };
             let curvature = (self.stiffness).conjugate(&self.residual, (alpha, beta), cg);
             // H not positive along d (or a NaN curvature): keep the step so far
@@ -310,6 +316,7 @@ mod tests {
             step: &mut step,
             direction: &mut direction,
             product: &mut product,
+            partial: &mut Vec::new(),
         };
         let curvature = (newton.stiffness).conjugate(&d, (0.0, 0.0), cg);
         assert_eq!(direction, d);

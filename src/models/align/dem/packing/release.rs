@@ -334,10 +334,9 @@ mod tests {
                 (overlap - lo).abs() < 1e-9,
                 "{step_solver:?}: {overlap} vs {lo}"
             );
+            // the step is implicit: it stops short of the explicit step's overshoot
+            assert!(overlap > 0.0 && overlap < overlap0);
         }
-        let overlap = lo;
-        // the step is implicit: it stops short of the explicit step's overshoot
-        assert!(overlap > 0.0 && overlap < overlap0);
     }
 
     /// The same loaded bed released by backward-Euler steps (conjugate gradients inside each)
