@@ -122,8 +122,9 @@ impl Stiffness {
     /// The conjugate gradients' updates that need no sum first, in one pass: with the
     /// residuals r, the last step length α and the coefficient β, p ← p + α d, then
     /// d ← r + β d and q ← H r + β q, which is H d (H is linear); returns d·q. One pass
-    /// instead of three: at 10⁴ particles each join on the thread pool costs about as much as
-    /// a product.
+    /// instead of three: on two threads each pass on the pool costs about 15 µs beyond its
+    /// work, against about 105 µs for a product at 10⁴ (results/bench/README.md, "The
+    /// release's passes on two threads").
     fn conjugate(&self, residual: &[Vector3<f64>], (alpha, beta): (f64, f64), cg: Cg) -> f64 {
         let Cg {
             step,
@@ -255,9 +256,12 @@ impl Newton {
             let q = &self.product;
             let ([next], largest) = ordered_update_in(CHUNK, &mut self.residual, |i, r| {
                 *r -= alpha * q[i];
-                ([r.norm_squared()], r.norm())
+                let r2 = r.norm_squared();
+                ([r2], r2)
             });
-            if largest < target {
+            // the largest |r| from the largest |r|²: one root, not one per particle (the same
+            // value: the root is monotone)
+            if largest.sqrt() < target {
                 break;
             }
             beta = next / rr;
