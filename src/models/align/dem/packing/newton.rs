@@ -6,7 +6,7 @@
 //!
 //! Why: nonlinear conjugate gradients pay two force evaluations per iteration (the step and a
 //! curvature probe), each a walk over the whole neighbour list. A product with the stored
-//! stiffnesses walks the touching pairs alone, about a third of an evaluation. The minimizer
+//! stiffnesses walks the touching pairs alone, a fifth to a third of an evaluation. The minimizer
 //! of each backward-Euler step is the same whichever solver finds it, to the solve's tolerance.
 //!
 //! H keeps each contact's normal stiffness dF/dδ and drops the geometric term F/r across the
