@@ -132,7 +132,10 @@ pub struct Numerics {
     /// of the path: at N = 1000 (8 paired seeds) 10³ gives τ_0.95 within 0.23 ± 0.31 s of the
     /// plain overdamped relaxation (Heun steps of 0.8/k_max); with FIRE solving each step,
     /// 10⁴ gave 0.08 ± 0.27 s, 10⁵ 0.26 ± 0.13 s above it, and 10⁶ fell back to the inertial
-    /// kind of bed (results/bench/README.md, "An overdamped release"). 10³.
+    /// kind of bed (results/bench/README.md, "An overdamped release"). From
+    /// `large_bed_from` particles on, h is also at most 0.05 R_av / F_max (F_max the largest
+    /// net force at the step's start), which shortens the loaded bed's first steps
+    /// (results/bench/README.md, "The release's early steps"). 10³.
     pub release_step: f64,
     /// From `large_bed_from` particles on, each backward-Euler step of the overdamped release
     /// is solved until its largest net force is below this fraction of its value at the
