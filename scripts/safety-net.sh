@@ -35,8 +35,9 @@ run_case() { # name, command…
   leaves < "$work/$name.json" > "$work/$name.txt"
 }
 
-run_case bed $bin bed --tail-correction none --json
-run_case bed-tail $bin bed --json
+# the cycles at the time-step factor they were recorded with (the default since 2026-12-05 is 0.4)
+run_case bed $bin bed --tail-correction none --time-step-factor 0.2 --json
+run_case bed-tail $bin bed --time-step-factor 0.2 --json
 run_case damper $bin damper --particles 92 --damper-time 0.5s --tail-correction none --json \
   --out "$work/damper"
 # the fit details moved from the JSON into damper_fits.json (absent in the recorded layout)

@@ -201,8 +201,10 @@ fn small_bed() -> BedParams {
 /// same terms in the same order (the same bits), and the exact sums (each pair once, in tiles
 /// of lanes: the same terms added in another order) agree with them to round-off over the
 /// whole cycle (F_max and every recorded series but the kinetic energy). Round-off is ~1e-16
-/// per evaluation (1.4e-15 on F_max after the cycle); a missing pair or a wrong term would
-/// show at the 1e-4 level, far above the 1e-12 asked.
+/// per evaluation; the cycle's stick-slip amplifies it along the way, to below 1e-12 of each
+/// series' scale at the time-step factor 0.2 and to 1e-11 at the default 0.4 (measured
+/// 2026-12-05: 8.7e-11 N in a piston force of 9.15 N). A missing pair or a wrong term would
+/// show at the 1e-4 level, far above the 1e-10 asked.
 #[test]
 fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums() {
     let mut p = small_bed();
@@ -223,7 +225,7 @@ fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums() {
         assert_eq!(other.series, listed[0].series);
     }
     let (a, b) = (listed[0].max_force.unwrap(), exact.max_force.unwrap());
-    assert!((a - b).abs() <= 1e-12 * b, "F_max {a} vs {b}");
+    assert!((a - b).abs() <= 1e-10 * b, "F_max {a} vs {b}");
     for ((name, list), (_, exact)) in listed[0].series.0.iter().zip(&exact.series.0) {
         assert_eq!(list.len(), exact.len(), "{name}");
         if name == "kinetic_energy" {
@@ -237,7 +239,7 @@ fn lists_with_a_cutoff_beyond_the_cell_reproduce_exact_sums() {
                 (l.0 - e.0).abs() <= 1e-12 * e.0.abs(),
                 "{name} t {l:?} vs {e:?}"
             );
-            assert!((l.1 - e.1).abs() <= 1e-12 * scale, "{name}: {l:?} vs {e:?}");
+            assert!((l.1 - e.1).abs() <= 1e-10 * scale, "{name}: {l:?} vs {e:?}");
         }
     }
 }
@@ -384,14 +386,17 @@ fn piston_force_converges_as_the_time_step_factor_is_refined() {
     let errors = force_errors_against_a_fine_step(&mut p, &[0.8, 0.4, 0.2]);
     eprintln!("relative force errors at factors 0.8, 0.4, 0.2: {errors:?}");
     assert!(errors[0] > errors[1] && errors[1] > errors[2], "{errors:?}");
-    // the documented claim: at the default factor 0.2 the force is converged to 1e-4
+    // the documented claims: at factor 0.2 (the damper's default) the force is converged to
+    // 1e-4; at the cycle's default 0.4 to 1e-3, an order of magnitude below the chaotic scatter
+    // of F_max between seeds (0.6-1 %, results/bed/README.md)
     assert!(errors[2] < 1e-4, "{errors:?}");
+    assert!(errors[1] < 1e-3, "{errors:?}");
     // ... which holds with the default tail too (its held values differ from fresh ones by a
     // few per cent of the tail, itself a few per cent of the force here)
     let mut p = regular_bed();
-    let errors = force_errors_against_a_fine_step(&mut p, &[0.2]);
-    eprintln!("with the tail, relative force error at factor 0.2: {errors:?}");
-    assert!(errors[0] < 1e-4, "{errors:?}");
+    let errors = force_errors_against_a_fine_step(&mut p, &[0.4, 0.2]);
+    eprintln!("with the tail, relative force errors at factors 0.4, 0.2: {errors:?}");
+    assert!(errors[0] < 1e-3 && errors[1] < 1e-4, "{errors:?}");
 }
 
 /// The relative errors of the force at maximum compression at each time-step factor against
@@ -417,6 +422,10 @@ fn multiple_time_stepping_converges_to_every_step_sums() {
     // alone: the tail's own hold (until a disc has moved r_c/64) would add an error of its own.
     let mut p = regular_bed();
     p.tail_correction = TailCorrection::None;
+    // at the step these errors were measured at: at the default factor 0.4 the held far field
+    // spans twice the time, and K = 16 then lands closer than K = 8 (1.4e-3 against 5.3e-3;
+    // K = 4: 5.6e-4), the stick-slip's response to a held force not being monotone in it
+    p.time_step_factor = 0.2;
     let mut force = |k: usize| {
         p.far_field_interval = k;
         let o = succeeding_cycle(&p);

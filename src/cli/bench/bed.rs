@@ -53,8 +53,10 @@ pub(super) fn run(args: &BenchArgs) -> Result<Vec<serde_json::Value>> {
                         ("far_field_interval", k.clone()),
                     ];
                     for (name, value) in [
+                        ("cutoff", &args.cutoff),
                         ("list_radius", &args.list_radius),
                         ("time_step_factor", &args.time_step_factor),
+                        ("max_time_step", &args.max_time_step),
                         ("tail_correction", &args.tail_correction),
                     ] {
                         if let Some(v) = value {
@@ -117,6 +119,7 @@ fn row(
         "list_radius_D": params.list_radius.diameters(params.reference_diameter()),
         "cell_width_D": params.cell().0 / params.reference_diameter(),
         "time_step_factor": params.time_step_factor,
+        "max_time_step_s": params.max_time_step,
         "threads": threads,
         "steps": o.steps,
         "wall_s": o.wall_time_s,

@@ -86,12 +86,18 @@ pub struct BenchArgs {
     /// pair every step; K > 1 applies to verlet rows only).
     #[arg(long, default_value = "1", value_delimiter = ',')]
     far_field_interval: Vec<String>,
+    /// bed: cut-off r_c of the pair sums in units of D1 [default: the model's].
+    #[arg(long)]
+    cutoff: Option<String>,
     /// bed: Verlet list radius r_v in units of D1 [default: the model's].
     #[arg(long)]
     list_radius: Option<String>,
     /// bed: time-step factor (Δt = factor/ω_max) [default: the model's].
     #[arg(long)]
     time_step_factor: Option<String>,
+    /// bed: upper bound on the time step (s, ms; bare number: s) [default: the model's].
+    #[arg(long)]
+    max_time_step: Option<String>,
     /// bed: the tail beyond the cut-off (auto, none, mean-field) [default: the model's, auto:
     /// mean-field with verlet and cells].
     #[arg(long)]

@@ -1,0 +1,62 @@
+"""runs.csv from the JSON records of run.sh (argument: their folder), then the paired
+differences from the reference of the same N, speed and seed on standard error:
+exact sums at factor 0.2 for the cycles (the list with the tail at factor 0.2 where no exact
+run was made: N = 736 at the standard speed), factor 0.2 for the damper."""
+import csv, glob, json, os, re, statistics as st, sys
+from collections import defaultdict
+
+folder = sys.argv[1] if len(sys.argv) > 1 else "json"
+rows = []
+for path in sorted(glob.glob(os.path.join(folder, "*.json"))):
+    name = os.path.basename(path)[:-5]
+    j = json.load(open(path))
+    m = re.match(r"damper-f([\d.]+)-s(\d+)$", name)
+    if m:
+        rows.append(dict(set="damper", n=368, label="f" + m[1], seed=int(m[2]), status=j["status"],
+                         fall_alpha=j["damper_fall_vdp_alpha"], fall_omega=j["damper_fall_vdp_omega"],
+                         steps=j["steps"], wall_s=j["wall_time_s"]))
+        continue
+    m = re.match(r"(fast|std)-N(\d+)-(\w+)-s(\d+)$", name)
+    rows.append(dict(set=m[1], n=int(m[2]), label=m[3], seed=int(m[4]), status=j["status"],
+                     max_piston_force_N=j["max_piston_force_N"], cycle_work_J=j["cycle_work_J"],
+                     steps=j["steps"], wall_s=j["wall_time_s"]))
+fields = ["set", "n", "label", "seed", "status", "max_piston_force_N", "cycle_work_J",
+          "fall_alpha", "fall_omega", "steps", "wall_s"]
+w = csv.DictWriter(sys.stdout, fields, lineterminator="\n")
+w.writeheader()
+for r in rows:
+    w.writerow(r)
+
+def paired(rows, keys, refs, relative):
+    by = defaultdict(dict)
+    for r in rows:
+        by[(r["set"], r["n"], r["seed"])][r["label"]] = r
+    out = defaultdict(lambda: defaultdict(list))
+    for (s, n, seed), labels in by.items():
+        present = [r for r in refs if r in labels]
+        if not present:
+            continue
+        ref = present[0]
+        for label, r in labels.items():
+            if label == ref or r["status"] != "ok":
+                continue
+            for k in keys:
+                a, b = r[k], labels[ref][k]
+                out[(s, n, f"{label}/{ref}")][k].append(100 * (a / b - 1) if relative else a - b)
+            out[(s, n, f"{label}/{ref}")]["speed"].append(labels[ref]["wall_s"] / r["wall_s"])
+    return out
+
+def show(out, keys, unit):
+    for (s, n, label), d in sorted(out.items()):
+        k = len(d["speed"])
+        if k < 2:
+            continue
+        text = "  ".join(f"{key} {st.mean(v):+.3f} ± {st.stdev(v) / k ** 0.5:.3f}{unit} (sd {st.stdev(v):.3f})"
+                         for key, v in d.items() if key != "speed")
+        print(f"{s:6s} N={n:<5d} {label:16s} seeds {k:2d}  {text}  time ×{1 / st.mean(d['speed']):.2f} of the reference",
+              file=sys.stderr)
+
+cycles = [r for r in rows if r["set"] != "damper"]
+show(paired(cycles, ["max_piston_force_N", "cycle_work_J"], ["exact", "c713"], True), ["F", "W"], " %")
+damper = [r for r in rows if r["set"] == "damper"]
+show(paired(damper, ["fall_alpha", "fall_omega"], ["f0.2"], False), ["a", "w"], "")
