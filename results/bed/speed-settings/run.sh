@@ -56,6 +56,7 @@ std() { # N SEEDS...
 }
 RAYON_NUM_THREADS=1 std 368 $(seq 1 12)
 RAYON_NUM_THREADS=1 std 736 $(seq 1 8)
+RAYON_NUM_THREADS=1 std 1472 $(seq 1 8)
 # the damper (N = 368, 200 g piston, viscous friction) at five time-step factors
 for s in $(seq 1 8); do for x in 0.1 0.2 0.3 0.4 0.8; do
   f=json/damper-f$x-s$s.json
