@@ -28,7 +28,7 @@ run() {
   [ -s "$base.json" ] && { echo "$base"; return; }
   # exit 3 is a failed run whose JSON says why; anything else leaves no record
   local code=0
-  # at the time-step factor of the shipped tables (the default since 2026-12-05 is 0.4)
+  # at the time-step factor of the shipped tables (the default since 2026-12-05 is 0.4 with dry friction)
   /usr/bin/time -f "%U %S" -o "$base.cpu" "$bin" bed --particles "$n" --seed "$s" \
     --piston-speed "$speed" --time-step-factor 0.2 "$@" --json > "$base.json.tmp" || code=$?
   if [ "$code" -ne 0 ] && [ "$code" -ne 3 ]; then

@@ -35,7 +35,7 @@ run_case() { # name, command…
   leaves < "$work/$name.json" > "$work/$name.txt"
 }
 
-# the cycles at the time-step factor they were recorded with (the default since 2026-12-05 is 0.4)
+# the cycles at the time-step factor they were recorded with (the default since 2026-12-05 is 0.4 with dry friction)
 run_case bed $bin bed --tail-correction none --time-step-factor 0.2 --json
 run_case bed-tail $bin bed --time-step-factor 0.2 --json
 run_case damper $bin damper --particles 92 --damper-time 0.5s --tail-correction none --json \

@@ -39,8 +39,9 @@ std=(--piston-speed 8.33mm/s)
 # the cases on magopt's own list: truncated at r_c, as the shipped reports were made (the
 # default since 2026-12-04 adds the mean-field tail beyond r_c, docs/bed.md "Tail correction")
 cut=(--tail-correction none)
-# every run at the time-step factor the shipped runs were made with (the cycle's default since
-# 2026-12-05 is 0.4; the damper's is 0.2: docs/bed.md "Integration")
+# every run at the time-step factor the shipped runs were made with (the default since
+# 2026-12-05 is 0.4 with dry friction, 0.2 without it and for the damper: docs/bed.md
+# "Integration")
 step=(--time-step-factor 0.2)
 
 # the default cycle with lists (speed line of the issue) and the damper (§5.3, Fig. 5.12)

@@ -57,6 +57,18 @@ std() { # N SEEDS...
 RAYON_NUM_THREADS=1 std 368 $(seq 1 12)
 RAYON_NUM_THREADS=1 std 736 $(seq 1 8)
 RAYON_NUM_THREADS=1 std 1472 $(seq 1 8)
+# without dry friction (none, viscous), N = 368, the standard speed, at factors 0.1, 0.2, 0.4
+# (and none at 0.8 with a 2 ms cap, seeds 1-3)
+for s in $(seq 1 8); do for x in 1 2 4; do
+  RAYON_NUM_THREADS=1 run std-N368-nonef$x-s$s.json --particles 368 --seed $s --friction none \
+    --time-step-factor 0.$x
+  RAYON_NUM_THREADS=1 run std-N368-viscf$x-s$s.json --particles 368 --seed $s --friction viscous \
+    --time-step-factor 0.$x
+done; done
+for s in 1 2 3; do
+  RAYON_NUM_THREADS=1 run std-N368-nonef8c2-s$s.json --particles 368 --seed $s --friction none \
+    --time-step-factor 0.8 --max-time-step 2ms
+done
 # the damper (N = 368, 200 g piston, viscous friction) at five time-step factors
 for s in $(seq 1 8); do for x in 0.1 0.2 0.3 0.4 0.8; do
   f=json/damper-f$x-s$s.json

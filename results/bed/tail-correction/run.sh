@@ -1,7 +1,7 @@
 # The tail-correction runs of results/bed/README.md, "Tail correction over whole cycles" (run from this folder).
 # uniform/ holds the same runs of the first, uniform-density tail (2026-12-03), made by this script at that commit.
 B=${MAGOPT:-../../../target/release/magopt}
-# the time-step factor these runs were made with (the default since 2026-12-05 is 0.4)
+# the time-step factor these runs were made with (the default since 2026-12-05 is 0.4 with dry friction)
 step="--time-step-factor 0.2"
 for n in 368 736 1472 2208 4416 10000; do
   $B bed $step --particles $n --piston-speed 128mm/s --tail-correction mean-field --json > fast-N$n.json

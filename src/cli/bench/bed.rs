@@ -118,7 +118,7 @@ fn row(
         "cutoff_D": params.cutoff.diameters(params.reference_diameter()),
         "list_radius_D": params.list_radius.diameters(params.reference_diameter()),
         "cell_width_D": params.cell().0 / params.reference_diameter(),
-        "time_step_factor": params.time_step_factor,
+        "time_step_factor": params.time_step_factor(),
         "max_time_step_s": params.max_time_step,
         "threads": threads,
         "steps": o.steps,

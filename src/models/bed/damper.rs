@@ -113,7 +113,7 @@ fn fall(sim: &mut Simulation, piston: &mut Piston, rest: Option<f64>) -> Result<
             / piston.mass;
         let dt = sim
             .time_step(&scan)
-            .min(sim.params.time_step_factor / omega2.sqrt())
+            .min(sim.params.time_step_factor() / omega2.sqrt())
             .min(end - sim.state.time);
         piston.kick(sim.field.piston_force(), 0.5 * dt);
         let beyond = kick_and_drift(

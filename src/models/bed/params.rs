@@ -272,11 +272,9 @@ pub struct BedParams {
     /// is below θ times its gap to the summing leaf (0.5; 0 sums every pair exactly).
     pub opening_angle: f64,
     /// Δt = factor / ω_max, ω_max² the stiffest repulsion (pair or wall) at the closest
-    /// approach over the lightest mass; the step is chosen anew every step. 0.4 for the cycle
-    /// (0.2 until 2026-12-05): at N = 368 and the standard speed, exact sums at 0.4 keep factor
-    /// 0.2's F_max to 0.02 % (sd over 12 seeds), 50× below the scatter between seeds, in 0.7 of
-    /// the time (docs/bed.md, "Integration"). The damper keeps 0.2 (`BedModel::defaults`).
-    pub time_step_factor: f64,
+    /// approach over the lightest mass; the step is chosen anew every step [default: 0.4 with
+    /// dry friction, 0.2 without it and for the damper; see [`Self::time_step_factor`]].
+    pub time_step_factor: Option<f64>,
     /// Upper bound on Δt, s (1 ms).
     pub max_time_step: f64,
     /// Interval between recorded series points, s [default 0.05 s up to the preset's N, then
@@ -342,7 +340,7 @@ impl BedParams {
             near_cutoff: Reach::Diameters(3.0),
             tail_correction: TailCorrection::Auto,
             opening_angle: 0.5,
-            time_step_factor: 0.4,
+            time_step_factor: None,
             max_time_step: 1e-3,
             record_interval: None,
             min_distance_ratio: 0.9,
@@ -418,6 +416,18 @@ impl BedParams {
             self.width.unwrap_or(w) * scale,
             self.height.unwrap_or(h) * scale,
         )
+    }
+
+    /// The time-step factor (see the field `time_step_factor`). Its default is 0.4 where dry
+    /// friction acts (0.2 until 2026-12-05): dry friction damps the fast modes, and exact-sum
+    /// cycles at 0.4 keep factor 0.2's F_max to 0.02 % and the work to 0.06 % (sd over 12 seeds
+    /// at N = 368), 50× below the scatter between seeds, in 0.7 of the time. Without it 0.2: the
+    /// small work left in a frictionless cycle falls by 10 % at 0.4 and a viscous cycle's rises
+    /// by 3.5 % (8 seeds); the damper sets 0.2 itself (docs/bed.md, "Integration").
+    pub fn time_step_factor(&self) -> f64 {
+        let damped = self.friction.dry() && self.dynamic_friction > 0.0;
+        self.time_step_factor
+            .unwrap_or(if damped { 0.4 } else { 0.2 })
     }
 
     /// Interval between recorded series points, s (see the field `record_interval`).

@@ -151,7 +151,7 @@ impl<'a> Simulation<'a> {
 
     /// The step the rule gives for the scanned forces.
     pub fn time_step(&self, scan: &StepScan) -> f64 {
-        scan.time_step(self.params.time_step_factor, self.params.max_time_step)
+        scan.time_step(self.params.time_step_factor(), self.params.max_time_step)
     }
 
     /// Counters, extremes, checks, recording and particle frames after a step whose state

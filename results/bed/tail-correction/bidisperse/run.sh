@@ -2,7 +2,7 @@
 # The default tail on bi-disperse beds against exact sums and the truncated list (results/bed/README.md,
 # "Tail correction over whole cycles"); run from this folder. MAGOPT: the binary (default ../../../../target/release/magopt).
 B=${MAGOPT:-../../../../target/release/magopt}
-# the time-step factor these runs were made with (the default since 2026-12-05 is 0.4)
+# the time-step factor these runs were made with (the default since 2026-12-05 is 0.4 with dry friction)
 step="--time-step-factor 0.2"
 # run NAME ARGS...: exact sums, the default (tail) and the truncated list of one bed
 run() {
