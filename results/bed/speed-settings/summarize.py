@@ -1,4 +1,5 @@
-"""runs.csv from the JSON records of run.sh (argument: their folder), then the paired
+"""runs.csv from the JSON records of run.sh (argument: their folder; or runs.csv itself, to
+print the table from the shipped file), then the paired
 differences from the reference of the same N, speed and seed on standard error:
 exact sums at factor 0.2 for the cycles (the list with the tail at factor 0.2 where no exact
 run was made: N = 736 and 1472 at the standard speed; the cycles without dry friction against
@@ -7,9 +8,15 @@ runs.csv and left out of the differences."""
 import csv, glob, json, os, re, statistics as st, sys
 from collections import defaultdict
 
-folder = sys.argv[1] if len(sys.argv) > 1 else "json"
+source = sys.argv[1] if len(sys.argv) > 1 else "json"
 rows = []
-for path in sorted(glob.glob(os.path.join(folder, "*.json"))):
+if source.endswith(".csv"):
+    # the shipped table alone (its JSON records are not kept): numbers back from text
+    for r in csv.DictReader(open(source)):
+        rows.append({k: (v if k in ("set", "label", "status") else float(v) if v else None)
+                     for k, v in r.items()})
+        rows[-1]["n"], rows[-1]["seed"] = int(rows[-1]["n"]), int(rows[-1]["seed"])
+for path in sorted(glob.glob(os.path.join(source, "*.json"))):
     name = os.path.basename(path)[:-5]
     j = json.load(open(path))
     m = re.match(r"damper-f([\d.]+)-s(\d+)$", name)
