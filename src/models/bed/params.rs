@@ -496,4 +496,25 @@ mod tests {
         }
         assert_eq!(BedParams::defaults().tail_correction, TailCorrection::Auto);
     }
+
+    /// The longer default step only where dry friction damps the fast modes; a given factor
+    /// always wins.
+    #[test]
+    fn the_default_time_step_factor_follows_the_dry_friction() {
+        let with = |friction, dynamic_friction, factor| {
+            let p = BedParams {
+                friction,
+                dynamic_friction,
+                time_step_factor: factor,
+                ..BedParams::defaults()
+            };
+            p.time_step_factor()
+        };
+        assert_eq!(with(Friction::Dry, 0.45, None), 0.4);
+        assert_eq!(with(Friction::Both, 0.45, None), 0.4);
+        assert_eq!(with(Friction::Dry, 0.0, None), 0.2);
+        assert_eq!(with(Friction::Viscous, 0.45, None), 0.2);
+        assert_eq!(with(Friction::None, 0.45, None), 0.2);
+        assert_eq!(with(Friction::Dry, 0.45, Some(0.1)), 0.1);
+    }
 }
