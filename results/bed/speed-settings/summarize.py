@@ -16,7 +16,8 @@ if source.endswith(".csv"):
         rows.append({k: (v if k in ("set", "label", "status") else float(v) if v else None)
                      for k, v in r.items()})
         rows[-1]["n"], rows[-1]["seed"] = int(rows[-1]["n"]), int(rows[-1]["seed"])
-for path in sorted(glob.glob(os.path.join(source, "*.json"))):
+paths = [] if source.endswith(".csv") else sorted(glob.glob(os.path.join(source, "*.json")))
+for path in paths:
     name = os.path.basename(path)[:-5]
     j = json.load(open(path))
     m = re.match(r"damper-f([\d.]+)-s(\d+)$", name)
