@@ -18,34 +18,19 @@ use crate::Result;
 
 /// Mean inter-particle distance D̂ = (1/(N(N−1))) Σ_i Σ_{j≠i} |r_i − r_j|, m. Exact O(N²),
 /// gathered per particle and summed in index order (thread-count independent).
+///
+/// Each distance is the square root of its r² (in double precision) taken in single
+/// precision: relative error below 2⁻²³ per distance and so in D̂, far below anything D̂ is
+/// read for, at a fraction of the cost of double-precision roots, whose throughput bounded
+/// this sum (a tenth of a 10⁴-disc cycle: results/bench/README.md, "The bed's D̂ in single
+/// precision").
 pub fn mean_distance(position: &[Vector2<f64>]) -> f64 {
     let n = position.len();
     if n < 2 {
         return 0.0;
     }
     let (x, y): (Vec<f64>, Vec<f64>) = position.iter().map(|p| (p.x, p.y)).unzip();
-    let row = |i: usize| -> f64 {
-        let distance = |(a, b): (&f64, &f64)| ((a - x[i]).powi(2) + (b - y[i]).powi(2)).sqrt();
-        let (xs, ys) = (
-            x[i + 1..].chunks_exact(LANES),
-            y[i + 1..].chunks_exact(LANES),
-        );
-        let tail: f64 = xs
-            .remainder()
-            .iter()
-            .zip(ys.remainder())
-            .map(distance)
-            .sum();
-        // Partial sums per lane: independent additions the compiler vectorizes, where one
-        // running sum would force one addition after the other.
-        let mut lanes = [0.0; LANES];
-        for (cx, cy) in xs.zip(ys) {
-            for k in 0..LANES {
-                lanes[k] += distance((&cx[k], &cy[k]));
-            }
-        }
-        lanes.iter().sum::<f64>() + tail
-    };
+    let row = |i: usize| row_distances(&x[i + 1..], &y[i + 1..], (x[i], y[i]));
     let rows: Vec<f64> = if n >= 512 {
         (0..n).into_par_iter().map(row).collect()
     } else {
@@ -55,7 +40,62 @@ pub fn mean_distance(position: &[Vector2<f64>]) -> f64 {
 }
 
 /// Lanes of the partial sums of [`mean_distance`].
-const LANES: usize = 4;
+const LANES: usize = 16;
+
+/// Σ_j |r_j − r_i| over the points (xs, ys), with the widest vector instructions the
+/// processor has: the same operations in the same order in every form, so the same bits.
+fn row_distances(xs: &[f64], ys: &[f64], centre: (f64, f64)) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the processor has AVX-512F.
+            return unsafe { row_distances_avx512(xs, ys, centre) };
+        }
+        if crate::numerics::has_avx() {
+            // SAFETY: the processor has AVX.
+            return unsafe { row_distances_avx(xs, ys, centre) };
+        }
+    }
+    row_distances_lanes(xs, ys, centre)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn row_distances_avx512(xs: &[f64], ys: &[f64], centre: (f64, f64)) -> f64 {
+    row_distances_lanes(xs, ys, centre)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn row_distances_avx(xs: &[f64], ys: &[f64], centre: (f64, f64)) -> f64 {
+    row_distances_lanes(xs, ys, centre)
+}
+
+/// The portable form, compiled again inside each `target_feature` form above (which the
+/// compiler then vectorizes with that form's instructions).
+#[inline(always)]
+fn row_distances_lanes(xs: &[f64], ys: &[f64], (xi, yi): (f64, f64)) -> f64 {
+    let distance = |a: f64, b: f64| {
+        let (dx, dy) = (a - xi, b - yi);
+        f64::from(((dx * dx + dy * dy) as f32).sqrt())
+    };
+    let (cx, cy) = (xs.chunks_exact(LANES), ys.chunks_exact(LANES));
+    let tail: f64 = cx
+        .remainder()
+        .iter()
+        .zip(cy.remainder())
+        .map(|(&a, &b)| distance(a, b))
+        .sum();
+    // Partial sums per lane: independent additions the compiler vectorizes, where one
+    // running sum would force one addition after the other.
+    let mut lanes = [0.0; LANES];
+    for (cx, cy) in cx.zip(cy) {
+        for k in 0..LANES {
+            lanes[k] += distance(cx[k], cy[k]);
+        }
+    }
+    lanes.iter().sum::<f64>() + tail
+}
 
 /// Number of equal horizontal bands of the local area fraction profile.
 pub const AREA_FRACTION_BANDS: usize = 10;
@@ -263,7 +303,29 @@ mod tests {
             }
         }
         let expected = sum / (p.len() * (p.len() - 1)) as f64;
-        assert!((mean_distance(&p) - expected).abs() < 1e-14 * expected);
+        // single-precision roots: within 2⁻²³ of the double-precision sum
+        assert!((mean_distance(&p) - expected).abs() < 1.2e-7 * expected);
+    }
+
+    #[test]
+    fn every_form_of_the_distance_sum_gives_the_same_bits() {
+        // rows of every remainder modulo the lanes, on points spread over a bed-sized cell
+        let xs: Vec<f64> = (0..3 * LANES + 5)
+            .map(|k| (k as f64 * 0.37).sin().abs() * 0.36)
+            .collect();
+        let ys: Vec<f64> = (0..3 * LANES + 5)
+            .map(|k| (k as f64 * 0.91).cos().abs() * 0.45)
+            .collect();
+        for len in 0..xs.len() {
+            let (a, b, c) = (&xs[..len], &ys[..len], (0.1, 0.2));
+            let portable = row_distances_lanes(a, b, c).to_bits();
+            assert_eq!(row_distances(a, b, c).to_bits(), portable, "{len} points");
+            #[cfg(target_arch = "x86_64")]
+            if crate::numerics::has_avx() {
+                // SAFETY: the processor has AVX.
+                assert_eq!(unsafe { row_distances_avx(a, b, c) }.to_bits(), portable);
+            }
+        }
     }
 
     #[test]
