@@ -5,7 +5,7 @@
 # the repository: about 3 MB) and then runs.csv (summarize.py).
 # Each setting is named by its label; c<r_c>: the cut-off in D_1 with the default tail and a
 # skin of 0.87 D_1, k4: far-field interval 4, f<x>: time-step factor 0.<x>, c2: a 2 ms cap.
-# Every run gives its time-step factor, so the script means the same at any default.
+# Every run gives its time-step factor and cap, so the script means the same at any default.
 set -u
 B=${MAGOPT:-../../../target/release/magopt}
 mkdir -p json
@@ -13,7 +13,7 @@ run() { # FILE ARGS...
   local f=json/$1; shift
   [ -s "$f" ] || $B bed --json "$@" > "$f"
 }
-f2=(--time-step-factor 0.2)
+f2=(--time-step-factor 0.2 --max-time-step 1ms)
 # 128 mm/s (the top of the source's speeds): every setting against exact sums
 fast() { # N SEEDS...
   local n=$1; shift
@@ -24,10 +24,11 @@ fast() { # N SEEDS...
     run fast-N$n-c6-s$s.json "${a[@]}" "${f2[@]}" --cutoff 6 --list-radius 6.87
     run fast-N$n-c5-s$s.json "${a[@]}" "${f2[@]}" --cutoff 5 --list-radius 5.87
     run fast-N$n-c4-s$s.json "${a[@]}" "${f2[@]}" --cutoff 4 --list-radius 4.87
-    run fast-N$n-c713f4-s$s.json "${a[@]}" --time-step-factor 0.4
+    run fast-N$n-c713f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms
+    run fast-N$n-c713f4c2-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 2ms
     [ $n -le 736 ] && run fast-N$n-c713k4-s$s.json "${a[@]}" "${f2[@]}" --far-field-interval 4
-    run fast-N$n-c5f4-s$s.json "${a[@]}" --time-step-factor 0.4 --cutoff 5 --list-radius 5.87
-    run fast-N$n-c5k4f4-s$s.json "${a[@]}" --time-step-factor 0.4 --cutoff 5 --list-radius 5.87 \
+    run fast-N$n-c5f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms --cutoff 5 --list-radius 5.87
+    run fast-N$n-c5k4f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms --cutoff 5 --list-radius 5.87 \
       --far-field-interval 4
     run fast-N$n-list-s$s.json "${a[@]}" "${f2[@]}" --tail-correction none
   done
@@ -42,28 +43,37 @@ std() { # N SEEDS...
     local a=(--particles $n --seed $s)
     [ $n -le 368 ] && {
       run std-N$n-exact-s$s.json "${a[@]}" "${f2[@]}" --neighbors exact
-      run std-N$n-exactf4-s$s.json "${a[@]}" --neighbors exact --time-step-factor 0.4
-      run std-N$n-exactf8-s$s.json "${a[@]}" --neighbors exact --time-step-factor 0.8
+      run std-N$n-exactf4-s$s.json "${a[@]}" --neighbors exact --time-step-factor 0.4 --max-time-step 1ms
+      run std-N$n-exactf8-s$s.json "${a[@]}" --neighbors exact --time-step-factor 0.8 --max-time-step 1ms
       run std-N$n-exactf4c2-s$s.json "${a[@]}" --neighbors exact --time-step-factor 0.4 --max-time-step 2ms
       run std-N$n-exactf8c2-s$s.json "${a[@]}" --neighbors exact --time-step-factor 0.8 --max-time-step 2ms
       run std-N$n-c6-s$s.json "${a[@]}" "${f2[@]}" --cutoff 6 --list-radius 6.87
-      run std-N$n-c6f4-s$s.json "${a[@]}" --time-step-factor 0.4 --cutoff 6 --list-radius 6.87
+      run std-N$n-c6f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms --cutoff 6 --list-radius 6.87
     }
     run std-N$n-c713-s$s.json "${a[@]}" "${f2[@]}"
-    run std-N$n-c713f4-s$s.json "${a[@]}" --time-step-factor 0.4
+    run std-N$n-c713f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms
+    run std-N$n-c713f4c2-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 2ms
     run std-N$n-c713f8c2-s$s.json "${a[@]}" --time-step-factor 0.8 --max-time-step 2ms
   done
 }
 RAYON_NUM_THREADS=1 std 368 $(seq 1 12)
 RAYON_NUM_THREADS=1 std 736 $(seq 1 8)
 RAYON_NUM_THREADS=1 std 1472 $(seq 1 8)
+# N = 4416, the standard speed: the 2 ms cap at factors 0.4 and 0.8 against the default (factor
+# 0.4 under the 1 ms cap; 2026-12-05, sixth session)
+for s in 1 2 3 4; do
+  a=(--particles 4416 --seed $s)
+  RAYON_NUM_THREADS=1 run std-N4416-c713f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms
+  RAYON_NUM_THREADS=1 run std-N4416-c713f4c2-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 2ms
+  RAYON_NUM_THREADS=1 run std-N4416-c713f8c2-s$s.json "${a[@]}" --time-step-factor 0.8 --max-time-step 2ms
+done
 # without dry friction (none, viscous), N = 368, the standard speed, at factors 0.1, 0.2, 0.4
 # (and none at 0.8 with a 2 ms cap, seeds 1-3)
 for s in $(seq 1 8); do for x in 1 2 4; do
   RAYON_NUM_THREADS=1 run std-N368-nonef$x-s$s.json --particles 368 --seed $s --friction none \
-    --time-step-factor 0.$x
+    --time-step-factor 0.$x --max-time-step 1ms
   RAYON_NUM_THREADS=1 run std-N368-viscf$x-s$s.json --particles 368 --seed $s --friction viscous \
-    --time-step-factor 0.$x
+    --time-step-factor 0.$x --max-time-step 1ms
 done; done
 for s in 1 2 3; do
   RAYON_NUM_THREADS=1 run std-N368-nonef8c2-s$s.json --particles 368 --seed $s --friction none \
@@ -73,6 +83,6 @@ done
 for s in $(seq 1 8); do for x in 0.1 0.2 0.3 0.4 0.8; do
   f=json/damper-f$x-s$s.json
   [ -s "$f" ] || RAYON_NUM_THREADS=1 $B damper --particles 368 --piston-mass 200g --seed $s \
-    --time-step-factor $x --json --out /tmp/magopt-damper-f$x-s$s > "$f"
+    --time-step-factor $x --max-time-step 1ms --json --out /tmp/magopt-damper-f$x-s$s > "$f"
 done; done
 python3 summarize.py json > runs.csv
