@@ -21,7 +21,7 @@ use crate::Result;
 ///
 /// Each distance is the square root of its r² (in double precision) taken in single
 /// precision: relative error below 2⁻²³ per distance and so in D̂, far below anything D̂ is
-/// read for, at a fraction of the cost of double-precision roots, whose throughput bounded
+/// read for, at about a third of the time of double-precision roots, whose throughput bounded
 /// this sum (a tenth of a 10⁴-disc cycle: results/bench/README.md, "Bed: D̂ in single
 /// precision, and the 2 ms cap measured again").
 pub fn mean_distance(position: &[Vector2<f64>]) -> f64 {
@@ -30,7 +30,8 @@ pub fn mean_distance(position: &[Vector2<f64>]) -> f64 {
         return 0.0;
     }
     let (x, y): (Vec<f64>, Vec<f64>) = position.iter().map(|p| (p.x, p.y)).unzip();
-    let row = |i: usize| row_distances(&x[i + 1..], &y[i + 1..], (x[i], y[i]));
+    let form = row_distances();
+    let row = |i: usize| form(&x[i + 1..], &y[i + 1..], (x[i], y[i]));
     let rows: Vec<f64> = if n >= 512 {
         (0..n).into_par_iter().map(row).collect()
     } else {
@@ -42,21 +43,24 @@ pub fn mean_distance(position: &[Vector2<f64>]) -> f64 {
 /// Lanes of the partial sums of [`mean_distance`].
 const LANES: usize = 16;
 
-/// Σ_j |r_j − r_i| over the points (xs, ys), with the widest vector instructions the
-/// processor has: the same operations in the same order in every form, so the same bits.
-fn row_distances(xs: &[f64], ys: &[f64], centre: (f64, f64)) -> f64 {
+/// A row's sum of distances, Σ_j |r_j − r_i| over the points (xs, ys) from the centre r_i, in
+/// the widest vector instructions the processor has (chosen once per D̂): the same operations
+/// in the same order in every form, so the same bits.
+type RowSum = fn(&[f64], &[f64], (f64, f64)) -> f64;
+
+fn row_distances() -> RowSum {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the processor has AVX-512F.
-            return unsafe { row_distances_avx512(xs, ys, centre) };
+            // SAFETY: only called where the processor has AVX-512F.
+            return |xs, ys, centre| unsafe { row_distances_avx512(xs, ys, centre) };
         }
         if crate::numerics::has_avx() {
-            // SAFETY: the processor has AVX.
-            return unsafe { row_distances_avx(xs, ys, centre) };
+            // SAFETY: only called where the processor has AVX.
+            return |xs, ys, centre| unsafe { row_distances_avx(xs, ys, centre) };
         }
     }
-    row_distances_lanes(xs, ys, centre)
+    row_distances_lanes
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -319,7 +323,7 @@ mod tests {
         for len in 0..xs.len() {
             let (a, b, c) = (&xs[..len], &ys[..len], (0.1, 0.2));
             let portable = row_distances_lanes(a, b, c).to_bits();
-            assert_eq!(row_distances(a, b, c).to_bits(), portable, "{len} points");
+            assert_eq!(row_distances()(a, b, c).to_bits(), portable, "{len} points");
             #[cfg(target_arch = "x86_64")]
             if crate::numerics::has_avx() {
                 // SAFETY: the processor has AVX.
