@@ -39,6 +39,7 @@ use crate::neighbor::NeighborList;
 use crate::rng::{run_stream, Purpose};
 
 mod hertz_lanes;
+mod local;
 mod newton;
 mod release;
 pub mod store;

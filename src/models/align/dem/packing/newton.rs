@@ -14,10 +14,16 @@
 //! it H is positive definite (the anchor adds c I), as the conjugate gradients need; with it
 //! near-floppy particles made steps of tens of radii. The stop rule uses the true forces, so
 //! the approximation costs Newton steps, not accuracy.
+//!
+//! After each Newton step that leaves at most a tenth of the particles at the target force or
+//! above, `local` corrects them particle by particle before the forces are evaluated again:
+//! the overshoots of gaps the step closed, which took most of the Newton steps before
+//! (results/bench/README.md, "Local corrections in the release").
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::local::Corrections;
 use super::release::Anchor;
 use super::{ordered_update_in, ContactWork, Load, Loads, MAX_MOVE};
 use crate::models::align::dem::contacts::{Contact, Container};
@@ -183,6 +189,7 @@ pub(super) struct Newton {
     direction: Vec<Vector3<f64>>,
     product: Vec<Vector3<f64>>,
     partial: Vec<f64>,
+    local: Corrections,
 }
 
 impl Newton {
@@ -194,13 +201,15 @@ impl Newton {
             direction: vec![Vector3::zeros(); n],
             product: vec![Vector3::zeros(); n],
             partial: Vec::new(),
+            local: Corrections::default(),
         }
     }
 
     /// Moves `position` towards the minimizer of U + anchor until the largest net force is
     /// below `target`, starting from `force`, the net forces at `position` (`list` up to date
-    /// there), whose largest is `max_force`; `force` and `list` follow the moves. Returns
-    /// whether it got there within `NEWTON_LIMIT` steps.
+    /// there), whose largest is `max_force`; `force` and `list` follow the moves. Each Newton
+    /// step is followed by local corrections where few particles are left above the target.
+    /// Returns whether it got there within `NEWTON_LIMIT` steps.
     pub(super) fn minimize(
         &mut self,
         position: &mut [Vector3<f64>],
@@ -226,6 +235,12 @@ impl Newton {
             let at = &*position;
             let then = |i, f: &mut Load| anchor.pull(i, at, f);
             max_force = loads.evaluate(at, container, list, force, work, then)[0];
+            let problem = (loads, container, anchor);
+            if max_force >= target && self.local.correct(position, problem, list, force, target) {
+                let at = &*position;
+                let then = |i, f: &mut Load| anchor.pull(i, at, f);
+                max_force = loads.evaluate(at, container, list, force, work, then)[0];
+            }
         }
         max_force < target
     }
