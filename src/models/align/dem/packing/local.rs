@@ -172,7 +172,7 @@ mod tests {
 
     /// Spheres of R = 1 in a wide die, each anchored at its start (c = 0.25): a pair pressed
     /// together by 0.05, and `free` more far from everything. `check` gets the loads, the
-    /// die, the anchor (its positions: the start) and the net forces there.
+    /// die and the anchor (its positions: the start).
     fn with_pressed_pair(free: usize, check: impl FnOnce(&Loads, &Container, &Anchor)) {
         let mut start = vec![
             Vector3::new(20.0, 20.0, 5.0),
@@ -215,9 +215,8 @@ mod tests {
     ) -> f64 {
         let (loads, container, anchor) = problem;
         force.resize(x.len(), (Vector3::zeros(), 0.0, 0.0, 0));
-        let then = |i, f: &mut Load| anchor.pull(i, x, f);
         let mut work = ContactWork::default();
-        loads.evaluate(x, container, list, force, &mut work, then)[0]
+        anchor.net_forces((loads, container), x, (list, force), &mut work)
     }
 
     /// The pair alone feels a force (2 of 20 spheres): one correction brings every net force

@@ -232,14 +232,10 @@ impl Newton {
                 .reduce(|| 0.0, f64::max);
             let scale = (MAX_MOVE / reach).min(1.0);
             (position.par_iter_mut().zip(&self.step)).for_each(|(x, p)| *x += scale * p);
-            let at = &*position;
-            let then = |i, f: &mut Load| anchor.pull(i, at, f);
-            max_force = loads.evaluate(at, container, list, force, work, then)[0];
-            let problem = (loads, container, anchor);
+            let (sources, problem) = ((loads, container), (loads, container, anchor));
+            max_force = anchor.net_forces(sources, position, (list, force), work);
             if max_force >= target && self.local.correct(position, problem, list, force, target) {
-                let at = &*position;
-                let then = |i, f: &mut Load| anchor.pull(i, at, f);
-                max_force = loads.evaluate(at, container, list, force, work, then)[0];
+                max_force = anchor.net_forces(sources, position, (list, force), work);
             }
         }
         max_force < target

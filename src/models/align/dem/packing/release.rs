@@ -59,6 +59,19 @@ impl Anchor {
     pub(super) fn pull(&self, i: usize, position: &[Vector3<f64>], force: &mut Load) {
         force.0 -= self.stiffness * (position[i] - self.position[i]);
     }
+
+    /// The net forces at `at` (the loads and this anchor) into `force`, in one pass (`list`
+    /// brought up to date there); returns the largest.
+    pub(super) fn net_forces(
+        &self,
+        (loads, container): (&Loads, &Container),
+        at: &[Vector3<f64>],
+        (list, force): (&mut NeighborList<3>, &mut [Load]),
+        work: &mut ContactWork,
+    ) -> f64 {
+        let then = |i, f: &mut Load| self.pull(i, at, f);
+        loads.evaluate(at, container, list, force, work, then)[0]
+    }
 }
 
 impl Packing {
@@ -201,10 +214,8 @@ impl ConjugateGradients {
     ) -> Result<(), String> {
         self.reserve();
         let n = position.len();
-        // the net forces with the anchor, in one pass; returns the largest
         let mut net_force = |at: &[Vector3<f64>], force: &mut [Load], list: &mut _| {
-            let then = |i, f: &mut Load| anchor.pull(i, at, f);
-            loads.evaluate(at, container, list, force, work, then)[0]
+            anchor.net_forces((loads, container), at, (list, force), work)
         };
         let mut max_force = f64::INFINITY;
         let (_, mut reach) = self.steer(None);
