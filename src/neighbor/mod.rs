@@ -212,8 +212,11 @@ impl<const D: usize> NeighborList<D> {
             (found, counts)
         };
         let blocks: Vec<(Vec<u32>, Vec<usize>)> = if n >= PARALLEL_BUILD_FROM {
+            // one block per task: the pool's default split, about two pieces per thread,
+            // leaves a thread waiting where the density varies along the index (cell order)
             (0..n.div_ceil(BUILD_BLOCK))
                 .into_par_iter()
+                .with_max_len(1)
                 .map(|b| block(b * BUILD_BLOCK..((b + 1) * BUILD_BLOCK).min(n)))
                 .collect()
         } else {

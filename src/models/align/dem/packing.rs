@@ -52,6 +52,11 @@ const MAX_MOVE: f64 = 0.05;
 const SKIN: f64 = 0.3;
 /// Step cap per packing stage (reported as a failure if hit).
 const MAX_STEPS: usize = 2_000_000;
+/// The most particles one task of a force evaluation takes. The work per particle varies
+/// along the bed (in cell order index ranges are z-slabs; a settling bed is dense below and
+/// loose above), and the pool's default split, about two pieces per thread, left one thread
+/// waiting on the other's slabs (results/bench/README.md, "FIRE's passes").
+const EVALUATE_PIECE: usize = 256;
 /// FIRE's time-step cap in units of 1/√k_max (k_max: the largest summed contact stiffness of a
 /// particle, unit masses) in overlap removal and relaxation, and in settling below
 /// `Numerics::large_bed_from` particles.
@@ -234,20 +239,31 @@ impl Packing {
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
+            // Σ |F|² in one pass with FIRE's other sums (each pass on the pool costs more
+            // than its work at N = 10⁴: results/bench/README.md, "FIRE's passes"); summed in
+            // `SUM_CHUNK` chunks, so as a serial sum up to that many particles
+            let (sums, squared_force) = match &stepper {
+                Stepper::Fire(fire) => {
+                    let sums = fire_sums(&fire.velocity, &force);
+                    (sums, sums[2])
+                }
+                Stepper::Heun { .. } => {
+                    let [squared] = ordered_sums(n, |i| [force[i].0.norm_squared()]);
+                    ([0.0; 3], squared)
+                }
+            };
             let status = FlowStatus {
                 steps: step,
                 max_overlap,
                 max_force,
-                // serial sum: the same bits at any thread count
-                rms_force: (force.iter().map(|f| f.0.norm_squared()).sum::<f64>() / n as f64)
-                    .sqrt(),
+                rms_force: (squared_force / n as f64).sqrt(),
             };
             if done(&status) {
                 return Ok((step, work));
             }
             match &mut stepper {
                 Stepper::Fire(fire) => {
-                    fire.step(&mut self.position, &force, max_stiffness, max_force)
+                    fire.step(&mut self.position, &force, sums, [max_stiffness, max_force])
                 }
                 Stepper::Heun { trial, trial_force } => {
                     // explicit on γ ẋ = F: stable for dt λ ≤ 2, and λ ≤ 2 k_max (Gershgorin)
@@ -365,6 +381,7 @@ impl Loads<'_> {
         let (largest, contacts) = force
             .par_iter_mut()
             .enumerate()
+            .with_max_len(EVALUATE_PIECE)
             .map(|(i, slot)| {
                 *slot = (
                     Vector3::new(0.0, 0.0, -self.down_force * self.settling.share[i]),
@@ -501,43 +518,41 @@ impl Fire {
         }
     }
 
+    /// One step from the forces `force` at `position`, `sums` their `fire_sums` with the
+    /// velocities.
     fn step(
         &mut self,
         position: &mut [Vector3<f64>],
         force: &[Load],
-        max_stiffness: f64,
-        max_force: f64,
+        [power, v_squared, f_squared]: [f64; 3],
+        [max_stiffness, max_force]: [f64; 2],
     ) {
         let floor = self.mass_floor;
         let mass = |f: &Load| (f.1 / max_stiffness).max(floor);
-        let [power, v_squared, f_squared] = fire_sums(&self.velocity, force);
         let (v_norm, f_norm) = (v_squared.sqrt(), f_squared.sqrt());
         let dt_max = (self.max_step / max_stiffness.sqrt()).min(10.0);
-        if power > 0.0 {
+        // the velocities' mix (or their reset) and the fastest trial speed in one pass
+        let (keep, mix) = if power > 0.0 {
             let mix = self.alpha * v_norm / f_norm.max(f64::MIN_POSITIVE);
-            let alpha = self.alpha;
-            self.velocity.par_iter_mut().zip(force).for_each(|(v, f)| {
-                *v = (1.0 - alpha) * *v + mix * f.0;
-            });
+            let keep = 1.0 - self.alpha;
             self.downhill += 1;
             if self.downhill > 5 {
                 self.dt = (1.1 * self.dt).min(dt_max);
                 self.alpha *= 0.99;
             }
+            (Some(keep), mix)
         } else {
-            self.velocity
-                .par_iter_mut()
-                .for_each(|v| *v = Vector3::zeros());
             self.dt *= 0.5;
             self.alpha = Self::ALPHA0;
             self.downhill = 0;
-        }
+            (None, 0.0)
+        };
         let guess = self.dt;
-        let speed = self
-            .velocity
-            .par_iter()
-            .zip(force)
-            .map(|(v, f)| (v + guess / mass(f) * f.0).norm())
+        let speed = (self.velocity.par_iter_mut().zip(force))
+            .map(|(v, f)| {
+                *v = keep.map_or(Vector3::zeros(), |keep| keep * *v + mix * f.0);
+                (*v + guess / mass(f) * f.0).norm()
+            })
             .reduce(|| max_force * guess, f64::max);
         let dt = self
             .dt
