@@ -239,9 +239,9 @@ impl Packing {
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
             }
-            // Σ |F|² in one pass with FIRE's other sums (each pass on the pool costs more
-            // than its work at N = 10⁴: results/bench/README.md, "FIRE's passes"); summed in
-            // `SUM_CHUNK` chunks, so as a serial sum up to that many particles
+            // Σ |F|² in one pass with FIRE's other sums, not in a serial pass of its own
+            // (results/bench/README.md, "FIRE's passes"); summed in `SUM_CHUNK` chunks, so
+            // term by term as a serial sum up to that many particles
             let (sums, squared_force) = match &stepper {
                 Stepper::Fire(fire) => {
                     let sums = fire_sums(&fire.velocity, &force);
