@@ -242,28 +242,22 @@ impl Packing {
             // Σ |F|² in one pass with FIRE's other sums, not in a serial pass of its own
             // (results/bench/README.md, "FIRE's passes"); summed in `SUM_CHUNK` chunks, so
             // term by term as a serial sum up to that many particles
-            let (sums, squared_force) = match &stepper {
-                Stepper::Fire(fire) => {
-                    let sums = fire_sums(&fire.velocity, &force);
-                    (sums, sums[2])
-                }
-                Stepper::Heun { .. } => {
-                    let [squared] = ordered_sums(n, |i| [force[i].0.norm_squared()]);
-                    ([0.0; 3], squared)
-                }
+            let sums = match &stepper {
+                Stepper::Fire(fire) => fire_sums(&fire.velocity, &force),
+                Stepper::Heun { .. } => ordered_sums(n, |i| [0.0, 0.0, force[i].0.norm_squared()]),
             };
             let status = FlowStatus {
                 steps: step,
                 max_overlap,
                 max_force,
-                rms_force: (squared_force / n as f64).sqrt(),
+                rms_force: (sums[2] / n as f64).sqrt(),
             };
             if done(&status) {
                 return Ok((step, work));
             }
             match &mut stepper {
                 Stepper::Fire(fire) => {
-                    fire.step(&mut self.position, &force, sums, [max_stiffness, max_force])
+                    fire.step(&mut self.position, &force, sums, max_stiffness, max_force)
                 }
                 Stepper::Heun { trial, trial_force } => {
                     // explicit on γ ẋ = F: stable for dt λ ≤ 2, and λ ≤ 2 k_max (Gershgorin)
@@ -525,7 +519,8 @@ impl Fire {
         position: &mut [Vector3<f64>],
         force: &[Load],
         [power, v_squared, f_squared]: [f64; 3],
-        [max_stiffness, max_force]: [f64; 2],
+        max_stiffness: f64,
+        max_force: f64,
     ) {
         let floor = self.mass_floor;
         let mass = |f: &Load| (f.1 / max_stiffness).max(floor);

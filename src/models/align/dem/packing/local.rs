@@ -61,7 +61,7 @@ impl Corrections {
     /// particle moved to where its linearized net force vanishes, its partners held, by at
     /// most `MAX_MOVE`) over the particles at `VISIT` × `target` or more, with `force` kept
     /// pair by pair as they move, until none is left or for `ROUNDS` rounds. Returns whether
-    /// it moved anything (then `force` holds approximate values: the caller evaluates again).
+    /// it ran (then `force` holds approximate values: the caller evaluates again).
     /// Serial and in index order: the same bits at any thread count.
     pub(super) fn correct(
         &mut self,
