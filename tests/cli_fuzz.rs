@@ -136,5 +136,6 @@ proptest! {
             "--out".into(),
             out.to_string_lossy().into_owned(),
         ]);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -112,6 +112,9 @@ fn resumed_sweep_equals_an_uninterrupted_one() {
     }
     run(&resumed, true, None);
     assert_same_results(&whole, &resumed);
+    for dir in [whole, resumed] {
+        std::fs::remove_dir_all(dir).ok();
+    }
 }
 
 #[test]
@@ -131,6 +134,7 @@ fn sweep_refuses_to_overwrite_without_resume() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("--resume"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -147,6 +151,9 @@ fn shards_collected_equal_one_sweep() {
     let n = collect(&m, &study, &shards, &merged, "test").unwrap();
     assert_eq!(n, 16);
     assert_same_results(&whole, &merged);
+    for dir in shards.iter().chain([&whole, &merged]) {
+        std::fs::remove_dir_all(dir).ok();
+    }
 }
 
 proptest! {
