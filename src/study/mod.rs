@@ -4,6 +4,7 @@
 //! parallel, saves each run as it finishes, aggregates tables (with sensitivity indices and
 //! metric distributions for designs), optimizes free parameters and plots.
 
+pub mod awake;
 pub mod bayes;
 pub mod design;
 pub mod design_spec;

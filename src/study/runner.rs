@@ -4,6 +4,7 @@
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
+use super::awake::with_workers_awake;
 use super::model::{RunContext, Schedule, StudyModel};
 use super::records::{self, RunRecord};
 use super::spec::{RunSpec, Study};
@@ -233,8 +234,9 @@ pub fn single<M: StudyModel>(
     // On a worker of the pool: the run's parallel loops, called from outside the pool, would
     // each be handed to it and waited for (a thread wake-up per loop, every step), which at
     // a few hundred particles costs more than the loop; on a worker they run inline on one
-    // thread and by work stealing on more. The results do not depend on where they run.
-    let record = rayon::scope(|_| load_or_run(model, &run, &params, out, false, &context))?;
+    // thread and by work stealing on more, the other workers kept awake between them. The
+    // results do not depend on where they run.
+    let record = with_workers_awake(|| load_or_run(model, &run, &params, out, false, &context))?;
     if let Some(dir) = out {
         records::write_results(
             model,

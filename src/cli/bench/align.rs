@@ -15,7 +15,7 @@
 use serde_json::json;
 use std::time::Instant;
 
-use super::{counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use super::{counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs};
 use crate::materials::MaterialDb;
 use crate::models::align::dem::{self, ContactWork, Packing};
 use crate::models::align::AlignParams;
@@ -72,8 +72,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             params.numerics.release_scheme = args.release;
             reset_peak_rss();
             let (started, cpu_start) = (Instant::now(), cpu_seconds());
-            let (packing, work) = pool
-                .install(|| Packing::generate_counted(&params.packing(), 1))
+            let (packing, work) = run_on(&pool, || Packing::generate_counted(&params.packing(), 1))
                 .map_err(Error::Output)?;
             let settle_s = started.elapsed().as_secs_f64();
             let settle_cpu_s = cpu_seconds() - cpu_start;
@@ -89,7 +88,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let [_, loaded, released] = work.map(|w| w.final_contacts as f64 / die as f64);
             let settle_steps: usize = packing.steps.iter().sum();
             params.max_time = (args.max_steps as f64 - 0.5) * dem::time_step_s(&params, &packing);
-            let outcome = pool.install(|| dem::align(&params, &packing, None));
+            let outcome = run_on(&pool, || dem::align(&params, &packing, None));
             let settle_rate = (settle_steps * die) as f64 / settle_s;
             let align_rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
             let peak_mb = peak_rss_mb();

@@ -12,7 +12,7 @@
 use serde_json::json;
 
 use super::super::params::Given;
-use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs};
 use crate::models::bed::study::BedModel;
 use crate::Result;
 
@@ -82,7 +82,7 @@ fn row(
     params.snapshots = false;
     reset_peak_rss();
     let cpu_start = cpu_seconds();
-    let o = pool(threads)?.install(|| model.outcome(&params, 1, &|_| {}));
+    let o = run_on(&pool(threads)?, || model.outcome(&params, 1, &|_| {}));
     let cpu_s = cpu_seconds() - cpu_start;
     let n = params.particle_count();
     let tail = params.tail_correction.applies(params.neighbors);

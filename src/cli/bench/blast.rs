@@ -11,7 +11,7 @@
 
 use serde_json::json;
 
-use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, BenchArgs};
+use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs};
 use crate::models::blast::interact::{near_field_error, StageTimes};
 use crate::models::blast::study::BlastModel;
 use crate::models::blast::{run as run_blast, BlastParams, Interactions, NearFieldPrecision};
@@ -92,7 +92,7 @@ fn measure(
     let n = p.particles;
     reset_peak_rss();
     let cpu_start = cpu_seconds();
-    let o = pool.install(|| run_blast(p, 1, &|_| {}, None))?;
+    let o = run_on(pool, || run_blast(p, 1, &|_| {}, None))?;
     let cpu_s = cpu_seconds() - cpu_start;
     let peak = peak_rss_mb();
     let interacting = p.interactions.near_field;

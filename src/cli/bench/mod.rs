@@ -163,6 +163,12 @@ fn pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::Output(format!("thread pool: {e}")))
 }
 
+/// Runs `run` on `pool` as a single run of the CLI runs: on one of its workers, the others
+/// kept awake (`study::awake`), so that a benchmark times what a user's run costs.
+fn run_on<R: Send>(pool: &rayon::ThreadPool, run: impl FnOnce() -> R + Send) -> R {
+    pool.install(|| crate::study::awake::with_workers_awake(run))
+}
+
 /// Resets the kernel's peak-RSS mark of this process (Linux: "5" to /proc/self/clear_refs), so
 /// the next `peak_rss_mb` is the peak of one configuration. Silently a no-op elsewhere.
 fn reset_peak_rss() {
