@@ -5,7 +5,7 @@
 //! wakes them, and on a virtual machine a wake-up takes tens of microseconds. A run of 10⁴
 //! particles makes several parallel passes per step, a millisecond or less apart, so on two
 //! threads its second thread was put to sleep and woken at nearly every pass: at N = 10⁴ on a
-//! 2-core VM that cost the bed 6 % and align 3 % of their 2-thread time. Here every other
+//! 2-core VM that cost the bed 5 % and align 2 % of their 2-thread time. Here every other
 //! worker runs a job that keeps taking the pool's work (`rayon::yield_now`) until the run
 //! ends, yielding the processor between looks, so that no pass waits for a wake-up. The
 //! price: those workers use their cores while the run has nothing for them. This changes only
