@@ -23,6 +23,11 @@ use crate::units::MU0;
 /// From this many particles on, the per-particle gather runs on the rayon pool.
 const PARALLEL_FROM: usize = 256;
 
+/// The most particles one task of the per-particle gather takes: rayon's own split gives
+/// each of two threads about two pieces, and the discs' costs differ (walls, the tail's
+/// bands), so one thread was left waiting at the end of each pass.
+const PIECE: usize = 256;
+
 /// What the force evaluation gives for one particle, SI.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ParticleForce {
@@ -486,10 +491,15 @@ impl PairSums {
 }
 
 /// Sets `out` to f(0), …, f(n − 1), on the rayon pool from `PARALLEL_FROM` particles on (each
-/// entry depends on its index alone, so the result is thread-count independent).
+/// entry depends on its index alone, so the result is thread-count independent), in tasks of
+/// at most `PIECE` particles.
 fn per_particle<T: Send>(out: &mut Vec<T>, n: usize, f: impl Fn(usize) -> T + Sync + Send) {
     if n >= PARALLEL_FROM {
-        (0..n).into_par_iter().map(f).collect_into_vec(out);
+        (0..n)
+            .into_par_iter()
+            .with_max_len(PIECE)
+            .map(f)
+            .collect_into_vec(out);
     } else {
         out.clear();
         out.extend((0..n).map(f));
