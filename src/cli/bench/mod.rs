@@ -163,8 +163,8 @@ fn pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::Output(format!("thread pool: {e}")))
 }
 
-/// Runs `run` on `pool` as a single run of the CLI runs: on one of its workers, the others
-/// kept awake (`study::awake`), so that a benchmark times what a user's run costs.
+/// Runs `run` on `pool` as the CLI runs a single run: on one of its workers, the others kept
+/// awake (`study::awake`), so that a benchmark times what a user's run costs.
 fn run_on<R: Send>(pool: &rayon::ThreadPool, run: impl FnOnce() -> R + Send) -> R {
     pool.install(|| crate::study::awake::with_workers_awake(run))
 }
