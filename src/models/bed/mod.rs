@@ -28,6 +28,7 @@ pub mod report;
 pub mod state;
 pub mod study;
 mod tail;
+mod tail_lanes;
 mod validate;
 mod walls;
 

@@ -36,8 +36,10 @@
 
 use nalgebra::Vector2;
 use std::f64::consts::PI;
+use std::ops::Range;
 
 use super::list_gather::Partner;
+use super::tail_lanes::four_edges;
 
 /// Height of the density bands, in cut-off radii. Why r_c/2: the far kernel beyond r_c is
 /// smooth on the scale r_c, so it resolves density changes over r_c (the bed's gravity
@@ -58,6 +60,11 @@ pub(super) struct Tail {
     held: Vec<(Vector2<f64>, f64)>,
     /// The discs' positions at the last refresh, m.
     refreshed_at: Vec<Vector2<f64>>,
+    /// Per band holding a disc, the blocks its discs see ([`Self::blocks_around`]), end to
+    /// end: the same for all of them, so made once per refresh (at most N bands' worth).
+    views: Vec<Band>,
+    /// Each band's blocks in `views` (none for a band without discs).
+    view_of: Vec<Range<usize>>,
 }
 
 /// How far (in cut-off radii) a disc may move before the tails are computed anew. Why
@@ -76,36 +83,6 @@ const COARSE: usize = 2;
 /// are then taller).
 const MOST_BANDS: usize = 1 << 20;
 
-/// The most blocks a disc sees: the window and at most COARSE + 1 of each size (1, 2, 4, …,
-/// MOST_BANDS) on either side.
-const MOST_BLOCKS: usize = 2 * FINE + 1 + 2 * (COARSE + 1) * 21;
-
-/// A disc's blocks, on the stack (no allocation per disc).
-struct Blocks {
-    items: [Band; MOST_BLOCKS],
-    len: usize,
-}
-
-impl Default for Blocks {
-    fn default() -> Self {
-        Self {
-            items: [Band::default(); MOST_BLOCKS],
-            len: 0,
-        }
-    }
-}
-
-impl Blocks {
-    fn push(&mut self, band: Band) {
-        self.items[self.len] = band;
-        self.len += 1;
-    }
-
-    fn as_slice(&self) -> &[Band] {
-        &self.items[..self.len]
-    }
-}
-
 /// A horizontal band of R: its lower edge (m) and its densities (ρ_μ, ρ_μs), A·m²/m².
 #[derive(Debug, Clone, Copy, Default)]
 struct Band {
@@ -123,6 +100,8 @@ impl Tail {
             running: Vec::new(),
             held: Vec::new(),
             refreshed_at: Vec::new(),
+            views: Vec::new(),
+            view_of: Vec::new(),
         }
     }
 
@@ -145,13 +124,13 @@ impl Tail {
         self.refreshed_at.extend_from_slice(position);
         self.region = region_of(position, self.cutoff);
         self.fill_bands(position, discs);
+        self.fill_views(position);
         let mut held = std::mem::take(&mut self.held);
         let this = &*self;
         per_disc(&mut held, &|i| {
             let at = position[i];
-            let mut blocks = Blocks::default();
-            this.blocks_around(this.band_of(at.y), &mut blocks);
-            this.integral(blocks.as_slice(), at)
+            let blocks = &this.views[this.view_of[this.band_of(at.y)].clone()];
+            this.integral(blocks, at)
         });
         self.held = held;
     }
@@ -196,6 +175,26 @@ impl Tail {
         }
     }
 
+    /// The blocks of each band holding one of the discs at `position`.
+    fn fill_views(&mut self, position: &[Vector2<f64>]) {
+        self.view_of.clear();
+        self.view_of.resize(self.bands.len(), 0..0);
+        for p in position {
+            let own = self.band_of(p.y);
+            self.view_of[own] = 0..1; // marks the band; its blocks' range follows
+        }
+        let mut views = std::mem::take(&mut self.views);
+        views.clear();
+        for own in 0..self.bands.len() {
+            if !self.view_of[own].is_empty() {
+                let start = views.len();
+                self.blocks_around(own, &mut views);
+                self.view_of[own] = start..views.len();
+            }
+        }
+        self.views = views;
+    }
+
     /// The band holding height y (the first or last beyond R's bottom or top).
     fn band_of(&self, y: f64) -> usize {
         let (low, high) = (self.region.0.y, self.region.1.y);
@@ -209,7 +208,8 @@ impl Tail {
     /// on the scale of its distance, so a block's inner profile matters there by about
     /// (size/distance)² of its density steps, and the blocks grow with the distance: about
     /// 2·FINE + 2·COARSE·log₂(bands) edge terms per disc instead of one per band.
-    fn blocks_around(&self, own: usize, out: &mut Blocks) {
+    /// Appends them to `out`.
+    fn blocks_around(&self, own: usize, out: &mut Vec<Band>) {
         let count = self.bands.len();
         let (low, height) = (
             self.region.0.y,
@@ -231,7 +231,7 @@ impl Tail {
             }
             size
         };
-        out.len = 0;
+        let start = out.len();
         // below the window, from the window down (reversed after)
         let mut edge = own.saturating_sub(FINE);
         while edge > 0 {
@@ -239,7 +239,7 @@ impl Tail {
             out.push(block(edge - size, edge));
             edge -= size;
         }
-        out.items[..out.len].reverse();
+        out[start..].reverse();
         for b in own.saturating_sub(FINE)..(own + FINE + 1).min(count) {
             out.push(self.bands[b]);
         }
@@ -278,17 +278,24 @@ impl Tail {
         let rho_own = rho(own);
         let mut g = Vector2::new(rho_own.0 * (near_right - near_left), 0.0);
         let mut s = rho_own.1 * (2.0 * PI / rc - sum_left - sum_right);
-        for k in 0..bands.len() + 1 {
-            let (below, step) = if k <= own {
-                let before = if k == 0 { (0.0, 0.0) } else { rho(k - 1) };
-                (true, (rho(k).0 - before.0, rho(k).1 - before.1))
-            } else {
-                (false, (rho(k - 1).0 - rho(k).0, rho(k - 1).1 - rho(k).1))
-            };
-            let y = bands.get(k).map_or(region_high.y, |b| b.low);
-            let (eg, es) = horizontal_edge((left, right), edge((at.y - y).abs(), rc), below, rc);
-            g += eg * step.0;
-            s -= es * step.1;
+        let edges = bands.len() + 1;
+        let height = |k: usize| bands.get(k).map_or(region_high.y, |b| b.low);
+        for first in (0..edges).step_by(4) {
+            // the last four padded with the top edge, its extra lanes unused
+            let heights = [0, 1, 2, 3].map(|l| height((first + l).min(edges - 1)));
+            let count = (edges - first).min(4);
+            let terms = four_edges((left, right), at.y, (first, own), heights, count, rc);
+            for (l, (eg, es)) in terms.into_iter().enumerate().take(count) {
+                let k = first + l;
+                let step = if k <= own {
+                    let before = if k == 0 { (0.0, 0.0) } else { rho(k - 1) };
+                    (rho(k).0 - before.0, rho(k).1 - before.1)
+                } else {
+                    (rho(k - 1).0 - rho(k).0, rho(k - 1).1 - rho(k).1)
+                };
+                g += eg * step.0;
+                s -= es * step.1;
+            }
         }
         (g, s)
     }
@@ -316,7 +323,12 @@ fn region_of(position: &[Vector2<f64>], rc: f64) -> (Vector2<f64>, Vector2<f64>)
 /// horizontal edge at distance `y` below (`below`) or above the point, less its two corner
 /// quadrants beyond the vertical edges at distances `sides` (the part that a box's
 /// complement holds for that edge).
-fn horizontal_edge(sides: (Edge, Edge), y: Edge, below: bool, rc: f64) -> (Vector2<f64>, f64) {
+pub(super) fn horizontal_edge(
+    sides: (Edge, Edge),
+    y: Edge,
+    below: bool,
+    rc: f64,
+) -> (Vector2<f64>, f64) {
     let sy = if below { -1.0 } else { 1.0 };
     let (normal, mut s) = half_plane(y, rc);
     let mut g = Vector2::new(0.0, sy * normal);
@@ -330,16 +342,16 @@ fn horizontal_edge(sides: (Edge, Edge), y: Edge, below: bool, rc: f64) -> (Vecto
 
 /// The edge at distance d from the point, at least a billionth of rc (a point on an edge is
 /// the limit of points beside it; the closed forms are continuous there).
-fn edge(d: f64, rc: f64) -> Edge {
+pub(super) fn edge(d: f64, rc: f64) -> Edge {
     let d = d.max(1e-9 * rc);
     Edge { d, inv: 1.0 / d }
 }
 
 /// An edge's distance d > 0 from the point and 1/d.
 #[derive(Clone, Copy)]
-struct Edge {
-    d: f64,
-    inv: f64,
+pub(super) struct Edge {
+    pub(super) d: f64,
+    pub(super) inv: f64,
 }
 
 /// The half-plane beyond an edge, outside the disc of radius rc: (its ∫ ŝ/|s|⁴ dA along the
@@ -681,7 +693,7 @@ mod tests {
         };
         let total = moment(&tail.bands, tail.region.1.y);
         for own in [0, 3, count / 2, count - 2, count - 1] {
-            let mut blocks = Blocks::default();
+            let mut blocks = Vec::new();
             tail.blocks_around(own, &mut blocks);
             let blocks = blocks.as_slice();
             assert_eq!(blocks[0].low, tail.region.0.y);
