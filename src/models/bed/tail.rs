@@ -124,7 +124,7 @@ impl Tail {
         self.refreshed_at.extend_from_slice(position);
         self.region = region_of(position, self.cutoff);
         self.fill_bands(position, discs);
-        self.fill_views(position);
+        self.fill_views();
         let mut held = std::mem::take(&mut self.held);
         let this = &*self;
         per_disc(&mut held, &|i| {
@@ -146,7 +146,8 @@ impl Tail {
 
     /// Cuts R into bands of height about [`BAND_HEIGHT`] r_c and spreads each disc's
     /// moments over the band holding its centre; keeps the running sums of the bands'
-    /// moments for the blocks of [`Self::blocks_around`].
+    /// moments for the blocks of [`Self::blocks_around`], and marks the bands that hold a
+    /// disc for [`Self::fill_views`].
     fn fill_bands(&mut self, position: &[Vector2<f64>], discs: &[Partner]) {
         let (low, high) = self.region;
         let count = (((high.y - low.y) / (BAND_HEIGHT * self.cutoff)).round() as usize)
@@ -157,10 +158,13 @@ impl Tail {
             low: low.y + height * b as f64,
             density: (0.0, 0.0),
         }));
+        self.view_of.clear();
+        self.view_of.resize(count, 0..0);
         for (p, disc) in position.iter().zip(discs) {
             let b = self.band_of(p.y);
             let d = &mut self.bands[b].density;
             *d = (d.0 + disc.moment, d.1 + disc.moment_sin);
+            self.view_of[b] = 0..1; // marks the band as held; `fill_views` sets its range
         }
         self.running.clear();
         self.running.push((0.0, 0.0));
@@ -175,14 +179,8 @@ impl Tail {
         }
     }
 
-    /// The blocks of each band holding one of the discs at `position`.
-    fn fill_views(&mut self, position: &[Vector2<f64>]) {
-        self.view_of.clear();
-        self.view_of.resize(self.bands.len(), 0..0);
-        for p in position {
-            let own = self.band_of(p.y);
-            self.view_of[own] = 0..1; // marks the band; its blocks' range follows
-        }
+    /// The blocks of each band that [`Self::fill_bands`] marked as holding a disc.
+    fn fill_views(&mut self) {
         let mut views = std::mem::take(&mut self.views);
         views.clear();
         for own in 0..self.bands.len() {

@@ -3,11 +3,12 @@
 //!
 //! Why: a disc's tail sums about 2·FINE + 2·COARSE·log₂(bands) edge terms, each with
 //! thirteen divisions and two square roots behind the branches of the closed forms; at
-//! N = 10⁴ the tails' refreshes held 15 % of a standard cycle's compression on one thread. Most edges lie
-//! at least r_c above or below the disc, where every closed form takes its branch without an
-//! arc (the half-plane beyond r_c, the corner outside the disc): those run four side by side,
-//! each lane with the operations of [`horizontal_edge`] in its order, none fused, so the terms
-//! are its bits. The edges nearer than r_c take [`horizontal_edge`] itself.
+//! N = 10⁴ the tails' refreshes held 15 % of a standard cycle's compression on one thread.
+//! Most edges lie at least r_c above or below the disc, where every closed form takes its
+//! branch without an arc (the half-plane beyond r_c, the corner outside the disc): those run
+//! four side by side, each lane with the operations of [`horizontal_edge`] in its order, none
+//! fused, so the terms are its bits. The edges nearer than r_c take [`horizontal_edge`]
+//! itself.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
