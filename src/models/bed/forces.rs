@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 
 use super::exact::ExactSums;
 use super::far_field::FarField;
-use super::list_gather::{pair_sums, Partner};
+use super::list_gather::{pair_sums, Partner, Partners};
 use super::list_pairs::HalfList;
 use super::params::{BedParams, Neighbors, WallLaw};
 use super::state::{Geometry, Particles, State};
@@ -126,6 +126,8 @@ pub struct ForceField {
     /// The mean-field tail beyond the cut-off, where asked for.
     tail: Option<Tail>,
     partner: Vec<Partner>,
+    /// Whether every particle's `partner` record is the same (one species).
+    uniform_partners: bool,
     /// Per-particle results of the last evaluation.
     pub out: Vec<ParticleForce>,
 }
@@ -207,6 +209,7 @@ impl ForceField {
             geometry,
             pairs,
             tail,
+            uniform_partners: Partners::new(&partner).uniform,
             partner,
             out: vec![ParticleForce::default(); n],
         }
@@ -394,7 +397,11 @@ impl ForceField {
     /// outside the distance range have zero inverse powers and add exact zeros, so the sums
     /// equal those over the pairs inside alone.
     fn list_sums(&self, i: usize, half: &HalfList, list: &NeighborList<2>) -> PairSums {
-        pair_sums(&half.row(list, i), &self.partner, self.partner[i].diameter)
+        let partners = Partners {
+            each: &self.partner,
+            uniform: self.uniform_partners,
+        };
+        pair_sums(&half.row(list, i), partners, self.partner[i].diameter)
     }
 
     /// Ordered pair terms (i, j) the last evaluation's loops ran over, masked ones included

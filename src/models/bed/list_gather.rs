@@ -27,15 +27,33 @@ pub(super) struct Partner {
     pub(super) diameter: f64,
 }
 
+/// Every particle's [`Partner`] record, and whether they are all the same (a mono-disperse
+/// bed): then the AVX form takes the first record for every entry instead of loading each
+/// entry's (the same values, so the same bits).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Partners<'a> {
+    pub(super) each: &'a [Partner],
+    pub(super) uniform: bool,
+}
+
+impl<'a> Partners<'a> {
+    /// The records, `uniform` when every one has the bits of the first.
+    pub(super) fn new(each: &'a [Partner]) -> Self {
+        let bits = |p: &Partner| [p.moment, p.moment_sin, p.diameter].map(f64::to_bits);
+        let uniform = each.iter().all(|p| bits(p) == bits(&each[0]));
+        Self { each, uniform }
+    }
+}
+
 /// Disk i's pair sums over the entries of its list row (`own_diameter` = D_i), with AVX where
 /// the processor has it.
-pub(super) fn pair_sums(row: &Row, partner: &[Partner], own_diameter: f64) -> PairSums {
+pub(super) fn pair_sums(row: &Row, partner: Partners, own_diameter: f64) -> PairSums {
     #[cfg(target_arch = "x86_64")]
     if crate::numerics::has_avx() {
         // SAFETY: the processor has AVX.
         return unsafe { pair_sums_avx(row, partner, own_diameter) };
     }
-    pair_sums_portable(row, partner, own_diameter)
+    pair_sums_portable(row, partner.each, own_diameter)
 }
 
 /// The portable form: the entries one by one.
@@ -69,13 +87,24 @@ struct Lanes {
 /// Only where the processor has AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn pair_sums_avx(row: &Row, partner: &[Partner], own_diameter: f64) -> PairSums {
+unsafe fn pair_sums_avx(row: &Row, partners: Partners, own_diameter: f64) -> PairSums {
     let mut acc = Lanes {
         sums: _mm256_setzero_pd(),
         stiffest: _mm256_setzero_pd(),
         closeness: _mm256_setzero_pd(),
     };
     let own = _mm256_set1_pd(own_diameter);
+    let partner = partners.each;
+    let same = (partners.uniform && !partner.is_empty()).then(|| {
+        let p = &partner[0];
+        PartnerLanes {
+            moment: _mm256_set1_pd(p.moment),
+            moment_sin: _mm256_set1_pd(p.moment_sin),
+            diameter: _mm256_set1_pd(p.diameter),
+        }
+    });
+    // SAFETY: the processor has AVX.
+    let lanes = |js: &[u32]| same.unwrap_or_else(|| unsafe { gather_partners(js, partner) });
     let split = row.below.len() - row.below.len() % 4;
     for (js, slots) in row.below[..split]
         .chunks_exact(4)
@@ -83,7 +112,7 @@ unsafe fn pair_sums_avx(row: &Row, partner: &[Partner], own_diameter: f64) -> Pa
     {
         let t = [0, 1, 2, 3].map(|k| &row.terms[slots[k] as usize]);
         // SAFETY: the processor has AVX.
-        unsafe { add_four(&mut acc, t, js, partner, own, true) };
+        unsafe { add_four(&mut acc, t, lanes(js), own, true) };
     }
     for (&j, &s) in row.below[split..].iter().zip(&row.slots[split..]) {
         // SAFETY: as above.
@@ -105,7 +134,7 @@ unsafe fn pair_sums_avx(row: &Row, partner: &[Partner], own_diameter: f64) -> Pa
     {
         let t = [&t[0], &t[1], &t[2], &t[3]];
         // SAFETY: as above.
-        unsafe { add_four(&mut acc, t, js, partner, own, false) };
+        unsafe { add_four(&mut acc, t, lanes(js), own, false) };
     }
     for (&j, t) in row.above[split..].iter().zip(&row.above_terms[split..]) {
         // SAFETY: as above.
@@ -125,6 +154,32 @@ unsafe fn pair_sums_avx(row: &Row, partner: &[Partner], own_diameter: f64) -> Pa
     }
 }
 
+/// The [`Partner`] records of four entries, one field per register.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct PartnerLanes {
+    moment: __m256d,
+    moment_sin: __m256d,
+    diameter: __m256d,
+}
+
+/// The records of partners `js[0..4]`.
+///
+/// # Safety
+/// Only where the processor has AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn gather_partners(js: &[u32], partner: &[Partner]) -> PartnerLanes {
+    let p = [0, 1, 2, 3].map(|k| &partner[js[k] as usize]);
+    let field = |f: fn(&Partner) -> f64| _mm256_set_pd(f(p[3]), f(p[2]), f(p[1]), f(p[0]));
+    PartnerLanes {
+        moment: field(|p| p.moment),
+        moment_sin: field(|p| p.moment_sin),
+        diameter: field(|p| p.diameter),
+    }
+}
+
 /// Adds four entries: their terms side by side, then each entry's (f_x, f_y, normal) to the
 /// sums in entry order. `below`: the separations are seen from the other disk (negated).
 ///
@@ -136,8 +191,7 @@ unsafe fn pair_sums_avx(row: &Row, partner: &[Partner], own_diameter: f64) -> Pa
 unsafe fn add_four(
     acc: &mut Lanes,
     t: [&Separation; 4],
-    js: &[u32],
-    partner: &[Partner],
+    p: PartnerLanes,
     own: __m256d,
     below: bool,
 ) {
@@ -149,15 +203,11 @@ unsafe fn add_four(
         let sign = _mm256_set1_pd(-0.0);
         (dx, dy) = (_mm256_xor_pd(dx, sign), _mm256_xor_pd(dy, sign));
     }
-    let p = [0, 1, 2, 3].map(|k| &partner[js[k] as usize]);
-    let moment = _mm256_set_pd(p[3].moment, p[2].moment, p[1].moment, p[0].moment);
-    let moment_sin = _mm256_set_pd(
-        p[3].moment_sin,
-        p[2].moment_sin,
-        p[1].moment_sin,
-        p[0].moment_sin,
-    );
-    let diameter = _mm256_set_pd(p[3].diameter, p[2].diameter, p[1].diameter, p[0].diameter);
+    let PartnerLanes {
+        moment,
+        moment_sin,
+        diameter,
+    } = p;
     let mu_r5 = _mm256_mul_pd(_mm256_mul_pd(moment, inv_r3), inv_r2);
     let (fx, fy) = (_mm256_mul_pd(dx, mu_r5), _mm256_mul_pd(dy, mu_r5));
     let normal = _mm256_mul_pd(moment_sin, inv_r3);
@@ -211,7 +261,8 @@ mod tests {
 
     /// Where the processor has AVX, the AVX sums are the portable sums bit for bit, for rows
     /// of every length (remainders below and above the disk), disks of three sizes, moments
-    /// and tilts, and pairs inside and outside the range.
+    /// and tilts, and pairs inside and outside the range; and for disks all alike, whose
+    /// records the AVX form takes from the first.
     #[test]
     fn avx_and_portable_sums_are_identical() {
         #[cfg(target_arch = "x86_64")]
@@ -225,13 +276,14 @@ mod tests {
                 Vector2::new((1.3 * t).sin() * t.sqrt(), (0.7 * t).cos() * 5.0)
             })
             .collect();
-        let partner: Vec<_> = (0..n)
+        let mixed: Vec<_> = (0..n)
             .map(|k| Partner {
                 moment: [1.0, 0.3, 2.7][k % 3],
                 moment_sin: [0.1, 0.0, 0.4][k % 3],
                 diameter: [1.0, 0.5, 1.3][k % 3],
             })
             .collect();
+        let same = vec![mixed[2]; n];
         let mut list = NeighborList::<2>::new(0.5);
         list.build(&position, &vec![1.0; n]);
         let mut half = HalfList::default();
@@ -240,19 +292,23 @@ mod tests {
             [s.force.x, s.force.y, s.normal, s.stiffest, s.closeness].map(f64::to_bits)
         };
         let (mut lengths, mut pushed) = (std::collections::BTreeSet::new(), 0);
-        for i in 0..n {
-            let row = half.row(&list, i);
-            lengths.insert((row.below.len() % 4, row.above.len() % 4));
-            let own = partner[i].diameter;
-            let portable = pair_sums_portable(&row, &partner, own);
-            // SAFETY: the processor has AVX (checked above).
-            #[cfg(target_arch = "x86_64")]
-            let avx = unsafe { pair_sums_avx(&row, &partner, own) };
-            #[cfg(target_arch = "x86_64")]
-            assert_eq!(bits(avx), bits(portable), "disk {i}");
-            pushed += usize::from(portable.force.norm() > 0.0);
+        for partner in [&mixed, &same] {
+            let partners = Partners::new(partner);
+            assert_eq!(partners.uniform, std::ptr::eq(partner, &same));
+            for i in 0..n {
+                let row = half.row(&list, i);
+                lengths.insert((row.below.len() % 4, row.above.len() % 4));
+                let own = partner[i].diameter;
+                let portable = pair_sums_portable(&row, partner, own);
+                // SAFETY: the processor has AVX (checked above).
+                #[cfg(target_arch = "x86_64")]
+                let avx = unsafe { pair_sums_avx(&row, partners, own) };
+                #[cfg(target_arch = "x86_64")]
+                assert_eq!(bits(avx), bits(portable), "disk {i}");
+                pushed += usize::from(portable.force.norm() > 0.0);
+            }
         }
         assert!(lengths.len() >= 12, "remainders met: {lengths:?}");
-        assert!(pushed > n / 2, "{pushed} disks with pairs in range");
+        assert!(pushed > n, "{pushed} disks with pairs in range");
     }
 }
