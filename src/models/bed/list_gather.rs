@@ -33,6 +33,8 @@ pub(super) struct Partner {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Partners<'a> {
     pub(super) each: &'a [Partner],
+    /// Read by the AVX form only.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(super) uniform: bool,
 }
 
