@@ -116,6 +116,25 @@ fn align_settling_contacts_are_counted_once_per_pair() {
         n * contacts / 2.0 * steps,
         1e-9
     ));
+    // stages 1 and 2 alone (what the LAMMPS pour is compared with), within the packing's time
+    let stage_s: Vec<f64> = row["settle_stage_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_f64().unwrap())
+        .collect();
+    let fire = &row["fire_stages"];
+    let stage_steps = |k: usize| row["settle_steps"][k].as_f64().unwrap();
+    assert_eq!(f(fire, "steps"), stage_steps(0) + stage_steps(1));
+    assert!(close(f(fire, "s"), stage_s[0] + stage_s[1], 1e-12));
+    assert!(stage_s.iter().all(|&s| s > 0.0) && stage_s.iter().sum::<f64>() <= f(row, "settle_s"));
+    let fire_contacts = f(fire, "contacts_per_particle");
+    assert!(fire_contacts > 0.0 && fire_contacts < f(fire, "list_entries_per_particle"));
+    assert!(close(
+        f(fire, "contact_evaluations_per_s") * f(fire, "s"),
+        n * fire_contacts / 2.0 * (f(fire, "steps") + 2.0),
+        1e-9
+    ));
 }
 
 /// `bench blast` runs the interacting example once per near-field precision and reports each

@@ -102,10 +102,7 @@ IN
   lnb=$(lmp_half_list "$log")
   lbuilds=$(lmp_builds "$log")
   local lps lpe lpsw lpew
-  lps=$(awk -v n="$n" -v s="$steps" -v t="$cpu" 'BEGIN {print n * s / t}')
-  lpe=$(awk -v n="$n" -v p="$lpp" -v s="$steps" -v t="$cpu" 'BEGIN {print n * p / 2 * s / t}')
-  lpsw=$(awk -v n="$n" -v s="$steps" -v t="$wall" 'BEGIN {print n * s / t}')
-  lpew=$(awk -v n="$n" -v p="$lpp" -v s="$steps" -v t="$wall" 'BEGIN {print n * p / 2 * s / t}')
+  read -r lps lpe lpsw lpew < <(lammps_rates "$n" "$lpp" "$steps" "$cpu" "$wall")
   printf '%6s %-7s %10s %9.2f %9.2f %7s %14s %14s %14s %14s\n' "$n" magopt "$steps" "$pp" "$lp" \
     "$builds" "$(sci "$mps")" "$(sci "$mpe")" "$(sci "$mpsw")" "$(sci "$mpew")"
   # LAMMPS's list is a half list: its entries per particle, doubled, compare with magopt's

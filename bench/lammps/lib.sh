@@ -60,6 +60,13 @@ lmp_best_of_two() {
   done
   cp "$best" "$log"
 }
+# A LAMMPS run of $1 particles with $2 pairs (contacts) per particle over $3 steps in $4 CPU
+# seconds and $5 wall seconds: particle-steps and pair evaluations (each pair once) per CPU
+# second, then the same per wall second.
+lammps_rates() {
+  awk -v n="$1" -v p="$2" -v s="$3" -v c="$4" -v w="$5" \
+    'BEGIN {print n * s / c, n * p / 2 * s / c, n * s / w, n * p / 2 * s / w}'
+}
 # The loop's CPU seconds: wall time times CPU use.
 lmp_cpu_s() { awk -v t="$(lmp_loop_s "$1")" -v u="$(lmp_cpu_use "$1")" 'BEGIN {print t * u}'; }
 

@@ -86,6 +86,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             // touching pairs, each once
             let contact_evaluations = 0.5 * total(|w| w.contacts);
             let [_, loaded, released] = work.map(|w| w.final_contacts as f64 / die as f64);
+            let fire = fire_stages(&work[..2], &packing.steps[..2], die);
             let settle_steps: usize = packing.steps.iter().sum();
             params.max_time = (args.max_steps as f64 - 0.5) * dem::time_step_s(&params, &packing);
             let outcome = run_on(&pool, || dem::align(&params, &packing, None));
@@ -116,6 +117,8 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
                 "settle_list_entries_per_particle": per_particle(|w| w.list_entries),
                 "settle_contact_evaluations_per_s": contact_evaluations / settle_s,
                 "settle_contact_evaluations_per_cpu_s": contact_evaluations / settle_cpu_s,
+                "settle_stage_s": work.map(|w| w.seconds),
+                "fire_stages": fire,
                 "loaded_contacts_per_particle": loaded,
                 "released_contacts_per_particle": released,
                 "align_steps": outcome.steps,
@@ -130,4 +133,22 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
         }
     }
     Ok(rows)
+}
+
+/// Stages 1 and 2 of the packing (overlap removal and settling: FIRE steps, each one force
+/// evaluation), the part of it a granular pour does (`bench/lammps/align-hertz.sh`): steps,
+/// wall time, step-mean contacts and list entries per particle, and rates per wall second.
+fn fire_stages(work: &[ContactWork], steps: &[usize], die: usize) -> serde_json::Value {
+    let sum = |f: fn(&ContactWork) -> u64| work.iter().map(f).sum::<u64>() as f64;
+    let seconds: f64 = work.iter().map(|w| w.seconds).sum();
+    let steps: usize = steps.iter().sum();
+    let per_particle = |f| sum(f) / (sum(|w| w.evaluations) * die as f64);
+    json!({
+        "steps": steps,
+        "s": seconds,
+        "contacts_per_particle": per_particle(|w| w.contacts),
+        "list_entries_per_particle": per_particle(|w| w.list_entries),
+        "particle_steps_per_s": (steps * die) as f64 / seconds,
+        "contact_evaluations_per_s": 0.5 * sum(|w| w.contacts) / seconds,
+    })
 }

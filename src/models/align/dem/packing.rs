@@ -28,6 +28,8 @@
 //! "dropped" by a force proportional to their mass (R³, scaled so that its mean is the
 //! settling force), the same stop rules ending each stage.
 
+use std::time::Instant;
+
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -97,20 +99,20 @@ impl Packing {
         let n = &params.numerics;
         let (mut packing, stages, mut work) = Self::loaded(params, seed)?;
         let overdamped = n.release_scheme == ReleaseScheme::Overdamped;
-        (packing.steps[2], work[2]) = match stages.settling.scheme {
+        (packing.steps[2], work[2]) = timed(|| match stages.settling.scheme {
             SettlingScheme::Fire if overdamped => {
                 let solve = if packing.radius.len() >= n.large_bed_from {
                     (n.release_reduction, StepSolver::Newton)
                 } else {
                     (STEP_REDUCTION, StepSolver::ConjugateGradients)
                 };
-                packing.release(&stages, n.release_step, solve, n.overlap_tolerance)?
+                packing.release(&stages, n.release_step, solve, n.overlap_tolerance)
             }
             // the source's Heun steps are the overdamped motion itself
             _ => packing.flow(&stages.law, &stages.settling, stages.relax, |s| {
                 s.max_overlap < n.overlap_tolerance
-            })?,
-        };
+            }),
+        })?;
         Ok((packing, work))
     }
 
@@ -141,8 +143,10 @@ impl Packing {
             repulsion: Repulsion::Harmonic,
             ..relax
         };
-        (packing.steps[0], work[0]) = packing.flow(&law, &settling, remove, |s| {
-            s.max_overlap < n.overlap_tolerance
+        (packing.steps[0], work[0]) = timed(|| {
+            packing.flow(&law, &settling, remove, |s| {
+                s.max_overlap < n.overlap_tolerance
+            })
         })?;
         let f = n.settling_force;
         let large = packing.radius.len() >= n.large_bed_from;
@@ -152,12 +156,14 @@ impl Packing {
             mass_floor: if large { n.settling_mass_floor } else { 1.0 },
             ..relax
         };
-        (packing.steps[1], work[1]) = packing.flow(&law, &settling, settle, |s| {
-            let speed = match n.rest_measure {
-                RestMeasure::Max => s.max_force,
-                RestMeasure::Rms => s.rms_force,
-            };
-            s.steps > 10 && speed < n.rest_speed * f
+        (packing.steps[1], work[1]) = timed(|| {
+            packing.flow(&law, &settling, settle, |s| {
+                let speed = match n.rest_measure {
+                    RestMeasure::Max => s.max_force,
+                    RestMeasure::Rms => s.rms_force,
+                };
+                s.steps > 10 && speed < n.rest_speed * f
+            })
         })?;
         packing.container.top = None;
         let stages = Stages {
@@ -470,6 +476,18 @@ pub struct ContactWork {
     /// The ordered touching pairs of the last evaluation, at the stage's final positions:
     /// over N, the mean particle contacts per particle the stage ends with (overlap > 0).
     pub final_contacts: u64,
+    /// The stage's wall time, s.
+    pub seconds: f64,
+}
+
+/// A stage's (steps, work) with its wall time in the work.
+fn timed(
+    stage: impl FnOnce() -> Result<(usize, ContactWork), String>,
+) -> Result<(usize, ContactWork), String> {
+    let started = Instant::now();
+    let (steps, mut work) = stage()?;
+    work.seconds = started.elapsed().as_secs_f64();
+    Ok((steps, work))
 }
 
 impl ContactWork {
