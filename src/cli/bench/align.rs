@@ -80,11 +80,9 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let packing = packing.tiled(tiles);
             let n = packing.radius.len();
             params.particles = n;
-            let total = |f: fn(&ContactWork) -> u64| work.iter().map(f).sum::<u64>() as f64;
-            let per_particle = |f| total(f) / (total(|w| w.evaluations) * die as f64);
-            let contacts_per_particle = per_particle(|w| w.contacts);
-            // touching pairs, each once
-            let contact_evaluations = 0.5 * total(|w| w.contacts);
+            let all = Totals::of(&work, die);
+            let (contacts_per_particle, contact_evaluations) =
+                (all.contacts_per_particle, all.contact_evaluations);
             let [_, loaded, released] = work.map(|w| w.final_contacts as f64 / die as f64);
             let fire = fire_stages(&work[..2], &packing.steps[..2], die);
             let settle_steps: usize = packing.steps.iter().sum();
@@ -114,7 +112,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
                 "settle_cpu_s": settle_cpu_s,
                 "settle_particle_steps_per_cpu_s": (settle_steps * die) as f64 / settle_cpu_s,
                 "settle_contacts_per_particle": contacts_per_particle,
-                "settle_list_entries_per_particle": per_particle(|w| w.list_entries),
+                "settle_list_entries_per_particle": all.list_entries_per_particle,
                 "settle_contact_evaluations_per_s": contact_evaluations / settle_s,
                 "settle_contact_evaluations_per_cpu_s": contact_evaluations / settle_cpu_s,
                 "settle_stage_s": work.map(|w| w.seconds),
@@ -139,16 +137,37 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
 /// evaluation), the part of it a granular pour does (`bench/lammps/align-hertz.sh`): steps,
 /// wall time, step-mean contacts and list entries per particle, and rates per wall second.
 fn fire_stages(work: &[ContactWork], steps: &[usize], die: usize) -> serde_json::Value {
-    let sum = |f: fn(&ContactWork) -> u64| work.iter().map(f).sum::<u64>() as f64;
+    let totals = Totals::of(work, die);
     let seconds: f64 = work.iter().map(|w| w.seconds).sum();
     let steps: usize = steps.iter().sum();
-    let per_particle = |f| sum(f) / (sum(|w| w.evaluations) * die as f64);
     json!({
         "steps": steps,
         "s": seconds,
-        "contacts_per_particle": per_particle(|w| w.contacts),
-        "list_entries_per_particle": per_particle(|w| w.list_entries),
+        "contacts_per_particle": totals.contacts_per_particle,
+        "list_entries_per_particle": totals.list_entries_per_particle,
         "particle_steps_per_s": (steps * die) as f64 / seconds,
-        "contact_evaluations_per_s": 0.5 * sum(|w| w.contacts) / seconds,
+        "contact_evaluations_per_s": totals.contact_evaluations / seconds,
     })
+}
+
+/// What some packing stages' contact sums add up to over a die of `die` particles.
+struct Totals {
+    /// Step-mean touching partners per particle.
+    contacts_per_particle: f64,
+    /// Step-mean list entries per particle.
+    list_entries_per_particle: f64,
+    /// Touching pairs evaluated, each once.
+    contact_evaluations: f64,
+}
+
+impl Totals {
+    fn of(work: &[ContactWork], die: usize) -> Self {
+        let total = |f: fn(&ContactWork) -> u64| work.iter().map(f).sum::<u64>() as f64;
+        let per_particle = |f| total(f) / (total(|w| w.evaluations) * die as f64);
+        Self {
+            contacts_per_particle: per_particle(|w| w.contacts),
+            list_entries_per_particle: per_particle(|w| w.list_entries),
+            contact_evaluations: 0.5 * total(|w| w.contacts),
+        }
+    }
 }
