@@ -4,7 +4,8 @@
 # (default ../../../target/release/magopt). Writes one JSON per run into json/ (not kept in
 # the repository: about 3 MB) and then runs.csv (summarize.py).
 # Each setting is named by its label; c<r_c>: the cut-off in D_1 with the default tail and a
-# skin of 0.87 D_1, k4: far-field interval 4, f<x>: time-step factor 0.<x>, c2: a 2 ms cap.
+# skin of 0.87 D_1, k<K>: far-field interval K (then s<r_s>: its near cut-off in D_1, 45 for
+# 4.5), f<x>: time-step factor 0.<x>, c2: a 2 ms cap.
 # Every run gives its time-step factor and cap, so the script means the same at any default.
 set -u
 B=${MAGOPT:-../../../target/release/magopt}
@@ -27,6 +28,14 @@ fast() { # N SEEDS...
     run fast-N$n-c713f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms
     run fast-N$n-c713f4c2-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 2ms
     [ $n -le 736 ] && run fast-N$n-c713k4-s$s.json "${a[@]}" "${f2[@]}" --far-field-interval 4
+    # 2026-12-06, third session: the interval and the near cut-off r_s (in D_1) of the holding
+    if [ $n -le 736 ]; then
+      run fast-N$n-c713k2-s$s.json "${a[@]}" "${f2[@]}" --far-field-interval 2
+      run fast-N$n-c713k8-s$s.json "${a[@]}" "${f2[@]}" --far-field-interval 8
+      for rs in 2 4.5 6; do
+        run fast-N$n-c713k4s${rs/./}-s$s.json "${a[@]}" "${f2[@]}" --far-field-interval 4 --near-cutoff $rs
+      done
+    fi
     run fast-N$n-c5f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms --cutoff 5 --list-radius 5.87
     run fast-N$n-c5k4f4-s$s.json "${a[@]}" --time-step-factor 0.4 --max-time-step 1ms --cutoff 5 --list-radius 5.87 \
       --far-field-interval 4
