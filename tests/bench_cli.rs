@@ -128,6 +128,14 @@ fn align_settling_contacts_are_counted_once_per_pair() {
     assert_eq!(f(fire, "steps"), stage_steps(0) + stage_steps(1));
     assert!(close(f(fire, "s"), stage_s[0] + stage_s[1], 1e-12));
     assert!(stage_s.iter().all(|&s| s > 0.0) && stage_s.iter().sum::<f64>() <= f(row, "settle_s"));
+    // each stage starts a list of its own and builds it at most once per force evaluation
+    for k in 0..3 {
+        let builds = row["settle_list_builds"][k].as_f64().unwrap();
+        assert!(
+            (1.0..=stage_steps(k) + 1.0).contains(&builds),
+            "stage {k}: {builds}"
+        );
+    }
     let fire_contacts = f(fire, "contacts_per_particle");
     assert!(fire_contacts > 0.0 && fire_contacts < f(fire, "list_entries_per_particle"));
     assert!(close(

@@ -376,7 +376,7 @@ impl Loads<'_> {
         work: &mut ContactWork,
         then: impl Fn(usize, &mut Load) + Sync,
     ) -> [f64; 3] {
-        list.update(position, self.radius);
+        let built = list.update(position, self.radius);
         let list = &*list;
         let (largest, contacts) = force
             .par_iter_mut()
@@ -410,7 +410,7 @@ impl Loads<'_> {
                 || ([0.0; 3], 0),
                 |(a, m), (b, n)| ([0, 1, 2].map(|k| f64::max(a[k], b[k])), m + n),
             );
-        work.add(list.len(), contacts);
+        work.add(list.len(), contacts, built);
         largest
     }
 }
@@ -478,6 +478,9 @@ pub struct ContactWork {
     pub final_contacts: u64,
     /// The stage's wall time, s.
     pub seconds: f64,
+    /// Neighbour-list builds in the stage's force evaluations (the Newton release's local
+    /// corrections reuse the list of the evaluation before them).
+    pub list_builds: u64,
 }
 
 /// A stage's (steps, work) with its wall time in the work.
@@ -491,8 +494,9 @@ fn timed(
 }
 
 impl ContactWork {
-    fn add(&mut self, list_entries: usize, contacts: usize) {
+    fn add(&mut self, list_entries: usize, contacts: usize, built: bool) {
         self.evaluations += 1;
+        self.list_builds += u64::from(built);
         self.list_entries += list_entries as u64;
         self.contacts += contacts as u64;
         self.final_contacts = contacts as u64;
