@@ -199,10 +199,7 @@ mod tests {
             down_force: 0.0,
             radius: &radius,
         };
-        let anchor = Anchor {
-            position: start,
-            stiffness: 0.25,
-        };
+        let anchor = Anchor::new(start, 0.25);
         check(&loads, &container, &anchor);
     }
 

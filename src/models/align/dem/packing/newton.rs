@@ -314,10 +314,7 @@ mod tests {
             &mut work,
             as_gathered,
         );
-        let anchor = Anchor {
-            position: x.clone(),
-            stiffness: 1e-3 * largest[1],
-        };
+        let anchor = Anchor::new(x.clone(), 1e-3 * largest[1]);
         let mut newton = Newton::new(n);
         (newton.stiffness).linearize(&loads, x, &bed.container, &list, anchor.stiffness);
         let d: Vec<Vector3<f64>> = (0..n)

@@ -22,13 +22,15 @@
 //! overlaps, and with them the Hertz stiffness, shrink, as an explicit step would); in large
 //! beds (Newton) also at most MAX_MOVE/F_max, F_max the largest net force at the step's start.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::newton::Newton;
 use super::{
-    as_gathered, ordered_sums, ordered_update, ContactWork, Load, Loads, Packing, Stages, MAX_MOVE,
-    MAX_STEPS, SKIN,
+    as_gathered, ordered_sums, ordered_update, ContactWork, Load, Loads, Packing, Stages,
+    EVALUATE_PIECE, MAX_MOVE, MAX_STEPS, SKIN,
 };
 use crate::models::align::dem::contacts::Container;
 use crate::neighbor::NeighborList;
@@ -52,9 +54,23 @@ const PROBE_MOVE: f64 = 1e-6;
 pub(super) struct Anchor {
     pub(super) position: Vec<Vector3<f64>>,
     pub(super) stiffness: f64,
+    /// Each particle's force before the pull in the last [`Anchor::net_forces`]: the loads'
+    /// alone at those positions (the bits of each coordinate; atomic, so that the evaluation's
+    /// tasks write their own particles through a shared reference).
+    unpulled: Vec<[AtomicU64; 3]>,
 }
 
 impl Anchor {
+    /// Springs at `position` of stiffness `stiffness`.
+    pub(super) fn new(position: Vec<Vector3<f64>>, stiffness: f64) -> Self {
+        let unpulled = position.iter().map(|_| Default::default()).collect();
+        Self {
+            position,
+            stiffness,
+            unpulled,
+        }
+    }
+
     /// Adds particle i's spring force −c (x − x₀) to its net force.
     pub(super) fn pull(&self, i: usize, position: &[Vector3<f64>], force: &mut Load) {
         force.0 -= self.stiffness * (position[i] - self.position[i]);
@@ -69,8 +85,31 @@ impl Anchor {
         (list, force): (&mut NeighborList<3>, &mut [Load]),
         work: &mut ContactWork,
     ) -> f64 {
-        let then = |i, f: &mut Load| self.pull(i, at, f);
+        let then = |i: usize, f: &mut Load| {
+            let kept = &self.unpulled[i];
+            for (bits, x) in kept.iter().zip(f.0.iter()) {
+                bits.store(x.to_bits(), Ordering::Relaxed);
+            }
+            self.pull(i, at, f);
+        };
         loads.evaluate(at, container, list, force, work, then)[0]
+    }
+
+    /// Sets `force` to what [`Loads::evaluate`] gives, without the anchor, at the positions of
+    /// the last [`Anchor::net_forces`] into it, without a second walk over the contacts: the
+    /// forces before the pull, and the other fields as they are (the pull moves the force
+    /// alone). Returns the largest force, summed stiffness and overlap, as `evaluate` does.
+    fn unpull(&self, force: &mut [Load]) -> [f64; 3] {
+        (force.par_iter_mut().zip(&self.unpulled))
+            .with_max_len(EVALUATE_PIECE)
+            .map(|(f, kept)| {
+                f.0 = Vector3::from(
+                    kept.each_ref()
+                        .map(|x| f64::from_bits(x.load(Ordering::Relaxed))),
+                );
+                [f.0.norm(), f.1, f.2]
+            })
+            .reduce(|| [0.0; 3], |a, b| [0, 1, 2].map(|k| f64::max(a[k], b[k])))
     }
 }
 
@@ -97,20 +136,18 @@ impl Packing {
         let mut solver = ConjugateGradients::new(position.len());
         let mut newton = (step_solver == StepSolver::Newton).then(|| Newton::new(position.len()));
         let mut work = ContactWork::default();
-        let mut anchor = Anchor {
-            position: position.clone(),
-            stiffness: 0.0,
-        };
+        let mut anchor = Anchor::new(position.clone(), 0.0);
+        // whether the last force evaluation was the anchor's, at `position` (both solvers end
+        // a step with one there): the loads alone are then known without another evaluation
+        let mut pulled_here = false;
         loop {
             let force = &mut solver.force;
-            let [max_force, max_stiffness, max_overlap] = loads.evaluate(
-                position,
-                container,
-                &mut solver.list,
-                force,
-                &mut work,
-                as_gathered,
-            );
+            let [max_force, max_stiffness, max_overlap] = if pulled_here {
+                anchor.unpull(force)
+            } else {
+                let list = &mut solver.list;
+                loads.evaluate(position, container, list, force, &mut work, as_gathered)
+            };
             // (a bed whose forces all balance exactly is at rest: γ ẋ = F no longer moves it)
             if max_overlap < tolerance || max_force == 0.0 {
                 return Ok((work.evaluations as usize, work));
@@ -146,6 +183,7 @@ impl Packing {
             if !solved {
                 solver.minimize(position, &loads, container, &anchor, target, &mut work)?;
             }
+            pulled_here = true;
         }
     }
 }
@@ -310,10 +348,7 @@ mod tests {
             radius: &packing.radius,
         };
         let h = 40.0;
-        let anchor = Anchor {
-            position: packing.position.clone(),
-            stiffness: 1.0 / h,
-        };
+        let anchor = Anchor::new(packing.position.clone(), 1.0 / h);
         let (mut lo, mut hi) = (0.0, overlap0);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
@@ -475,6 +510,47 @@ mod tests {
             assert_eq!(sums.map(f64::to_bits), want.map(f64::to_bits), "{threads}");
             assert_eq!(largest, 976.0);
             assert!(items.iter().enumerate().all(|(i, &x)| x == term(i)));
+        }
+    }
+
+    /// What the anchor keeps of its last net forces is, bit for bit, what a fresh evaluation
+    /// of the loads alone gives there: every field of every particle's load and the largest
+    /// force, stiffness and overlap (a loaded bed of 300 particles, moved off its anchor).
+    #[test]
+    fn the_unpulled_forces_are_a_fresh_evaluation_of_the_loads() {
+        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
+        let mut params = AlignParams::paper_defaults(material, 0.0);
+        params.particles = 300;
+        let (bed, stages, _) = Packing::loaded(&params.packing(), 5).unwrap();
+        let loads = stages.release_loads(&bed.radius);
+        let anchor = Anchor::new(bed.position.clone(), 0.7);
+        let moved: Vec<_> = (bed.position.iter().enumerate())
+            .map(|(i, x)| x + 0.01 * Vector3::new((1.7 * i as f64).sin(), 0.5, -0.3))
+            .collect();
+        let zero: Load = (Vector3::zeros(), 0.0, 0.0, 0);
+        let (mut pulled, mut fresh) = (vec![zero; moved.len()], vec![zero; moved.len()]);
+        let mut list = NeighborList::rebuilt_on_spread(SKIN);
+        let mut work = ContactWork::default();
+        let sources = (&loads, &bed.container);
+        anchor.net_forces(sources, &moved, (&mut list, &mut pulled), &mut work);
+        assert!(pulled.iter().any(|f| f.1 > 0.0), "a bed with contacts");
+        let largest = anchor.unpull(&mut pulled);
+        let container = &bed.container;
+        let expected = loads.evaluate(
+            &moved,
+            container,
+            &mut list,
+            &mut fresh,
+            &mut work,
+            as_gathered,
+        );
+        assert_eq!(largest.map(f64::to_bits), expected.map(f64::to_bits));
+        for (a, b) in pulled.iter().zip(&fresh) {
+            assert_eq!(a.0.map(f64::to_bits), b.0.map(f64::to_bits));
+            assert_eq!(
+                (a.1.to_bits(), a.2.to_bits(), a.3),
+                (b.1.to_bits(), b.2.to_bits(), b.3)
+            );
         }
     }
 }
