@@ -7,6 +7,8 @@
 //! appears twice, once from each side) so a particle's forces are a gather: deterministic,
 //! free of write conflicts, and exactly antisymmetric since e_ji = −e_ij bit for bit.
 
+use std::ops::Index;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -100,10 +102,10 @@ impl ContactLaw {
 
     /// The particle part of [`Self::contacts_of`]: listed neighbours closer than the skin, in
     /// list order.
-    pub fn particle_contacts_of(
+    pub fn particle_contacts_of<P: Index<usize, Output = Vector3<f64>> + ?Sized>(
         &self,
         i: usize,
-        positions: &[Vector3<f64>],
+        positions: &P,
         radii: &[f64],
         neighbors: &NeighborList,
         mut emit: impl FnMut(u32, Contact),
@@ -127,10 +129,10 @@ impl ContactLaw {
 
     /// The wall part of [`Self::contacts_of`]: the surfaces of [`wall_gaps`] closer than the
     /// skin, in their order.
-    pub fn wall_contacts_of(
+    pub fn wall_contacts_of<P: Index<usize, Output = Vector3<f64>> + ?Sized>(
         &self,
         i: usize,
-        positions: &[Vector3<f64>],
+        positions: &P,
         radii: &[f64],
         container: &Container,
         mut emit: impl FnMut(u32, Contact),

@@ -116,6 +116,20 @@ impl Packing {
         Ok((packing, work))
     }
 
+    /// A loaded bed (`Self::loaded`) of `particles` Sr-ferrite spheres with the paper's
+    /// defaults, for the release's tests.
+    #[cfg(test)]
+    fn loaded_for_tests(particles: usize, seed: u64) -> (Self, Stages) {
+        let material = crate::materials::MaterialDb::builtin()
+            .get("srfe12o19")
+            .unwrap()
+            .clone();
+        let mut params = crate::models::align::AlignParams::paper_defaults(material, 0.0);
+        params.particles = particles;
+        let (bed, stages, _) = Self::loaded(&params.packing(), seed).unwrap();
+        (bed, stages)
+    }
+
     /// Stages 1 and 2 and the settling of stage 3: the bed still pressed by the settling
     /// force, the die open; with the forces the release uses.
     fn loaded(

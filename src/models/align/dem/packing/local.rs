@@ -10,11 +10,14 @@
 //! of a full evaluation below the target), so the step's minimizer is the same to its
 //! tolerance.
 
+use std::marker::PhantomData;
+use std::ops::Index;
+
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::release::Anchor;
-use super::{Load, Loads, MAX_MOVE};
+use super::{Load, Loads, MAX_MOVE, SKIN};
 use crate::models::align::dem::contacts::{Contact, Container};
 use crate::neighbor::NeighborList;
 
@@ -39,30 +42,65 @@ const ROUNDS: usize = 100;
 /// release").
 const VISIT: f64 = 0.5;
 
-/// What the corrections keep between Newton steps (no allocation per correction).
-#[derive(Debug, Default)]
+/// The rounds visit horizontal slabs in this many colours, slab k in colour k mod `COLOURS`:
+/// a slab is 2 R_max + 2 skin high, so a listed pair spans at most two neighbouring slabs, and
+/// two slabs of one colour, three apart, share no particle that either's visits read or write.
+const COLOURS: usize = 3;
+
+/// A colour's slabs are visited on the pool from this many visits on (a round of fewer is
+/// shorter than the pool's fork and join).
+const PARALLEL_VISITS: usize = 512;
+
+/// What the corrections keep between Newton steps (their vectors reused from one to the next).
+#[derive(Debug)]
 pub(super) struct Corrections {
-    /// Particles to visit in this round, ascending.
+    /// `PARALLEL_VISITS` (a test sets others).
+    parallel_visits: usize,
+    /// Each slab's visits of the round and its room.
+    slabs: Vec<Slab>,
+    /// Each particle's slab, by its height at the correction's start.
+    slab_of: Vec<u32>,
+    /// The particles to visit next (all slabs), ascending.
+    next: Vec<usize>,
+    /// Whether a particle's force changed in this round (so far).
+    touched: Vec<bool>,
+}
+
+/// One slab's particles to visit in this round (ascending), the particles whose force its
+/// visits changed, and each touching partner's force on the visited particle before and
+/// after its move.
+#[derive(Debug, Default)]
+struct Slab {
     active: Vec<usize>,
-    /// Particles whose force this round changed, ascending once sorted.
     touched: Vec<usize>,
-    /// `stamp` for a particle already in `touched` this round.
-    mark: Vec<u32>,
-    stamp: u32,
-    /// Each touching partner's force on the visited particle, before and after its move.
     before: Vec<(usize, Vector3<f64>)>,
     after: Vec<(usize, Vector3<f64>)>,
+}
+
+impl Default for Corrections {
+    fn default() -> Self {
+        Self {
+            parallel_visits: PARALLEL_VISITS,
+            slabs: Vec::new(),
+            slab_of: Vec::new(),
+            next: Vec::new(),
+            touched: Vec::new(),
+        }
+    }
 }
 
 impl Corrections {
     /// Corrects `position` where some but at most `MOST` of the particles feel `target` or
     /// more in `force` (the net forces at `position`, anchor included; `list` up to date
-    /// there): Gauss–Seidel rounds, in index order, of one-particle Newton steps (each
-    /// particle moved to where its linearized net force vanishes, its partners held, by at
-    /// most `MAX_MOVE`) over the particles at `VISIT` × `target` or more, with `force` kept
-    /// pair by pair as they move, until none is left or for `ROUNDS` rounds. Returns whether
-    /// it ran (then `force` holds approximate values: the caller evaluates again).
-    /// Serial and in index order: the same bits at any thread count.
+    /// there): Gauss–Seidel rounds of one-particle Newton steps (each particle moved to where
+    /// its linearized net force vanishes, its partners held, by at most `MAX_MOVE`) over the
+    /// particles at `VISIT` × `target` or more, with `force` kept pair by pair as they move,
+    /// until none is left or for `ROUNDS` rounds. Returns whether it ran (then `force` holds
+    /// approximate values: the caller evaluates again).
+    ///
+    /// A round visits the slabs of one colour after another (`COLOURS`), each slab's particles
+    /// in index order; the slabs of a colour share nothing, so they are visited at once on the
+    /// pool, with the bits of visiting them one after the other: the same at any thread count.
     pub(super) fn correct(
         &mut self,
         position: &mut [Vector3<f64>],
@@ -72,34 +110,115 @@ impl Corrections {
         target: f64,
     ) -> bool {
         let visit = VISIT * target;
-        self.active.clear();
-        self.active.par_extend(
+        self.next.clear();
+        self.next.par_extend(
             (force.par_iter().enumerate())
                 .filter(|(_, f)| f.0.norm() >= visit)
                 .map(|(i, _)| i),
         );
-        let above = (self.active.iter())
+        let above = (self.next.iter())
             .filter(|&&i| force[i].0.norm() >= target)
             .count();
         if above == 0 || above as f64 > MOST * position.len() as f64 {
             return false;
         }
-        self.mark.resize(position.len(), 0);
+        self.cut_slabs(position, problem.0.radius);
         for _ in 0..ROUNDS {
-            self.stamp = self.stamp.wrapping_add(1);
-            self.touched.clear();
-            for k in 0..self.active.len() {
-                self.visit(self.active[k], position, problem, list, force);
+            self.deal();
+            let apart = self.slabs_apart(list);
+            let bed = Shared::new(position, force, &mut self.touched);
+            let parallel_from = if apart {
+                self.parallel_visits
+            } else {
+                usize::MAX
+            };
+            for colour in 0..COLOURS {
+                visit_colour(&mut self.slabs, colour, parallel_from, bed, (problem, list));
             }
-            self.touched.sort_unstable();
-            let (active, touched) = (&mut self.active, &self.touched);
-            active.clear();
-            active.extend(touched.iter().filter(|&&j| force[j].0.norm() >= visit));
-            if active.is_empty() {
+            self.next.clear();
+            for slab in &mut self.slabs {
+                self.next.append(&mut slab.touched);
+            }
+            self.next.sort_unstable();
+            for &j in &self.next {
+                self.touched[j] = false;
+            }
+            self.next.retain(|&j| force[j].0.norm() >= visit);
+            if self.next.is_empty() {
                 break;
             }
         }
         true
+    }
+
+    /// Each particle's slab by the height of its centre above the lowest (slabs of
+    /// 2 R_max + 2 skin: a listed pair is closer than R_i + R_j + 2 skin, the list's spread
+    /// rule allowing each particle half a skin from its place at the build).
+    fn cut_slabs(&mut self, position: &[Vector3<f64>], radius: &[f64]) {
+        let height = 2.0 * radius.iter().cloned().fold(0.0, f64::max) + 2.0 * SKIN;
+        let bottom = position.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+        self.slab_of.clear();
+        (self.slab_of).extend(position.iter().map(|p| ((p.z - bottom) / height) as u32));
+        let slabs = self.slab_of.iter().max().map_or(0, |&k| k as usize + 1);
+        self.slabs.resize_with(slabs, Slab::default);
+        self.touched.resize(position.len(), false);
+    }
+
+    /// Hands the particles to visit (`next`, ascending) to their slabs.
+    fn deal(&mut self) {
+        for slab in &mut self.slabs {
+            slab.active.clear();
+        }
+        for &i in &self.next {
+            self.slabs[self.slab_of[i] as usize].active.push(i);
+        }
+    }
+
+    /// Whether every particle to visit has its listed partners in its own slab or the next
+    /// ones (what the slabs' height provides; where not, the slabs are visited one after
+    /// the other, which gives the same bits).
+    fn slabs_apart(&self, list: &NeighborList<3>) -> bool {
+        let slab = |j: u32| self.slab_of[j as usize];
+        self.next.iter().all(|&i| {
+            let own = self.slab_of[i];
+            list.of(i).iter().all(|&j| slab(j).abs_diff(own) <= 1)
+        })
+    }
+}
+
+/// Visits the slabs of one colour: on the pool from `parallel_from` visits on, else one after
+/// another (the same bits).
+fn visit_colour(
+    slabs: &mut [Slab],
+    colour: usize,
+    parallel_from: usize,
+    bed: Shared,
+    (problem, list): ((&Loads, &Container, &Anchor), &NeighborList<3>),
+) {
+    let visits: usize = (slabs.iter().skip(colour).step_by(COLOURS))
+        .map(|slab| slab.active.len())
+        .sum();
+    let mut group: Vec<&mut Slab> = (slabs.iter_mut().skip(colour).step_by(COLOURS)).collect();
+    let visit_slab = |slab: &mut &mut Slab| slab.visit_all(bed, problem, list);
+    if visits >= parallel_from {
+        group.par_iter_mut().for_each(visit_slab);
+    } else {
+        group.iter_mut().for_each(visit_slab);
+    }
+}
+
+impl Slab {
+    /// Visits the slab's particles in index order.
+    fn visit_all(
+        &mut self,
+        bed: Shared,
+        problem: (&Loads, &Container, &Anchor),
+        list: &NeighborList<3>,
+    ) {
+        self.touched.clear();
+        for k in 0..self.active.len() {
+            self.visit(self.active[k], bed, problem, list);
+        }
     }
 
     /// Moves particle i by one Newton step on its own net force and updates the forces on it
@@ -107,40 +226,124 @@ impl Corrections {
     fn visit(
         &mut self,
         i: usize,
-        position: &mut [Vector3<f64>],
+        bed: Shared,
         problem: (&Loads, &Container, &Anchor),
         list: &NeighborList<3>,
-        force: &mut [Load],
     ) {
-        let stiffness = particle_load(i, position, problem, list, &mut self.before).1;
-        let Some(step) = stiffness.cholesky().map(|c| c.solve(&force[i].0)) else {
+        let stiffness = particle_load(i, &bed, problem, list, &mut self.before).1;
+        // SAFETY (here and below): i is this slab's, the partners are in its own or the next
+        // slabs, which no other task of this colour reads or writes (`Shared`)
+        let force_on = |j: usize| unsafe { bed.force(j) };
+        let Some(step) = stiffness.cholesky().map(|c| c.solve(&force_on(i).0)) else {
             return;
         };
-        position[i] += step * (MAX_MOVE / step.norm()).min(1.0);
-        force[i].0 = particle_load(i, position, problem, list, &mut self.after).0;
+        unsafe { bed.move_by(i, step * (MAX_MOVE / step.norm()).min(1.0)) };
+        force_on(i).0 = particle_load(i, &bed, problem, list, &mut self.after).0;
         // each partner feels the reaction: −(its force on i)
         for &(j, g) in &self.before {
-            force[j].0 += g;
+            force_on(j).0 += g;
         }
         for &(j, g) in &self.after {
-            force[j].0 -= g;
+            force_on(j).0 -= g;
         }
         let partners = self.before.iter().chain(&self.after).map(|p| p.0);
         for j in std::iter::once(i).chain(partners) {
-            if self.mark[j] != self.stamp {
-                self.mark[j] = self.stamp;
+            // SAFETY: as above
+            if unsafe { bed.first_touch(j) } {
                 self.touched.push(j);
             }
         }
     }
 }
 
+/// The positions and forces that one colour's slabs change at once, element by element.
+///
+/// Safety of its use: a task reads the positions of its slab and the next ones, moves its own
+/// slab's particles and writes the forces on them and on their listed partners; the tasks
+/// running at once are the slabs of one colour, three slabs apart, and every listed partner of
+/// a visited particle lies in its own or the next slab (`Corrections::slabs_apart`, else the
+/// slabs run one after the other), so no element one task writes is read or written by
+/// another while it runs.
+#[derive(Clone, Copy)]
+struct Shared<'a> {
+    position: *mut Vector3<f64>,
+    force: *mut Load,
+    touched: *mut bool,
+    len: usize,
+    _borrow: PhantomData<&'a mut [Load]>,
+}
+
+// SAFETY: see the type's documentation: the tasks sharing it touch disjoint elements.
+unsafe impl Send for Shared<'_> {}
+unsafe impl Sync for Shared<'_> {}
+
+impl<'a> Shared<'a> {
+    fn new(
+        position: &'a mut [Vector3<f64>],
+        force: &'a mut [Load],
+        touched: &'a mut [bool],
+    ) -> Self {
+        assert!(position.len() == force.len() && force.len() == touched.len());
+        Self {
+            position: position.as_mut_ptr(),
+            force: force.as_mut_ptr(),
+            touched: touched.as_mut_ptr(),
+            len: position.len(),
+            _borrow: PhantomData,
+        }
+    }
+
+    /// The force on particle i.
+    ///
+    /// # Safety
+    /// No other task reads or writes it while the reference lives (the type's documentation).
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn force(&self, i: usize) -> &mut Load {
+        assert!(i < self.len);
+        // SAFETY: in bounds; exclusive by the caller's promise
+        unsafe { &mut *self.force.add(i) }
+    }
+
+    /// Marks particle i's force as changed in this round; returns whether it was not yet.
+    ///
+    /// # Safety
+    /// No other task reads or writes its mark meanwhile (the type's documentation).
+    unsafe fn first_touch(&self, i: usize) -> bool {
+        assert!(i < self.len);
+        // SAFETY: in bounds; exclusive by the caller's promise
+        let mark = unsafe { &mut *self.touched.add(i) };
+        !std::mem::replace(mark, true)
+    }
+
+    /// Moves particle i by `step`.
+    ///
+    /// # Safety
+    /// No other task reads or writes its position meanwhile (the type's documentation).
+    unsafe fn move_by(&self, i: usize, step: Vector3<f64>) {
+        assert!(i < self.len);
+        // SAFETY: in bounds; exclusive by the caller's promise
+        unsafe { *self.position.add(i) += step };
+    }
+}
+
+impl Index<usize> for Shared<'_> {
+    type Output = Vector3<f64>;
+
+    /// Particle i's position (no other task moves it meanwhile: the type's documentation).
+    fn index(&self, i: usize) -> &Vector3<f64> {
+        assert!(i < self.len);
+        // SAFETY: in bounds; its slab is this task's or a neighbour, which no task of the
+        // running colour moves but this one, and this one only between these reads
+        unsafe { &*self.position.add(i) }
+    }
+}
+
 /// Particle i's net force (contacts, surfaces, anchor) and the negative of its derivative in
 /// x_i, Σ k n nᵀ + c I (positive definite: c > 0); `pairs` gets each touching partner's force
 /// on i.
-fn particle_load(
+fn particle_load<P: Index<usize, Output = Vector3<f64>> + ?Sized>(
     i: usize,
-    position: &[Vector3<f64>],
+    position: &P,
     (loads, container, anchor): (&Loads, &Container, &Anchor),
     list: &NeighborList<3>,
     pairs: &mut Vec<(usize, Vector3<f64>)>,
@@ -234,6 +437,67 @@ mod tests {
             assert!(out0 > 1e-3 && (out0 - out1).abs() < 1e-9, "{out0} {out1}");
             assert_eq!(position[2..], start[2..]);
         });
+    }
+
+    /// The slabs of a colour visited at once on two threads give the bits of visiting them one
+    /// after another: a loaded bed of 1 500 particles, its anchor 10⁻³ k_max, every particle
+    /// moved off it, corrected to the force that a twentieth of them feel.
+    #[test]
+    fn slabs_visited_at_once_give_the_bits_of_one_after_another() {
+        use crate::models::align::dem::packing::{as_gathered, Packing};
+        let (bed, stages) = Packing::loaded_for_tests(1500, 2);
+        let loads = stages.release_loads(&bed.radius);
+        let (mut list, mut force) = (NeighborList::rebuilt_on_spread(SKIN), Vec::new());
+        force.resize(bed.position.len(), (Vector3::zeros(), 0.0, 0.0, 0));
+        let mut work = ContactWork::default();
+        let container = &bed.container;
+        let x = &bed.position;
+        let largest = loads.evaluate(x, container, &mut list, &mut force, &mut work, as_gathered);
+        let anchor = Anchor::new(x.clone(), 1e-3 * largest[1]);
+        let moved: Vec<_> = (x.iter().enumerate())
+            .map(|(i, p)| {
+                p + 0.004 * Vector3::new((1.3 * i as f64).sin(), (0.7 * i as f64).cos(), 0.5)
+            })
+            .collect();
+        let problem = (&loads, container, &anchor);
+        evaluate(problem, &moved, &mut list, &mut force);
+        let mut sizes: Vec<f64> = force.iter().map(|f| f.0.norm()).collect();
+        sizes.sort_by(f64::total_cmp);
+        let target = sizes[sizes.len() * 95 / 100];
+        let run = |parallel_visits: usize, threads: usize| {
+            let (mut position, mut force) = (moved.clone(), force.clone());
+            let mut corrections = Corrections {
+                parallel_visits,
+                ..Corrections::default()
+            };
+            corrections.cut_slabs(&position, &bed.radius);
+            corrections.next = (0..position.len()).collect();
+            let apart = corrections.slabs_apart(&list);
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let ran = pool
+                .install(|| corrections.correct(&mut position, problem, &list, &mut force, target));
+            (
+                apart && ran && corrections.slabs.len() >= 2 * COLOURS,
+                position,
+                force,
+            )
+        };
+        let (ran, at_once, forces_at_once) = run(0, 2);
+        let (_, one_by_one, forces_one_by_one) = run(usize::MAX, 1);
+        assert!(
+            ran,
+            "the slabs were apart, several per colour, and the corrections ran"
+        );
+        assert!(
+            at_once.iter().zip(&moved).any(|(a, b)| a != b),
+            "particles moved"
+        );
+        assert_eq!(at_once, one_by_one);
+        let bits = |f: &[Load]| f.iter().map(|f| f.0.map(f64::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&forces_at_once), bits(&forces_one_by_one));
     }
 
     /// With both spheres of two feeling the force, the residual is the whole bed's: no

@@ -285,9 +285,7 @@ impl Newton {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::materials::MaterialDb;
     use crate::models::align::dem::packing::{as_gathered, Packing, SKIN};
-    use crate::models::align::AlignParams;
 
     /// The stored stiffnesses' product is the derivative of the net forces along d,
     /// (F(x) − F(x + ε d))/ε, on a loaded bed of 200 particles (anchor included), less the
@@ -295,10 +293,7 @@ mod tests {
     /// here pair by pair over every pair of the bed.
     #[test]
     fn the_stored_stiffness_is_the_derivative_of_the_forces_less_the_geometric_term() {
-        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
-        let mut params = AlignParams::paper_defaults(material, 0.0);
-        params.particles = 200;
-        let (bed, stages, _) = Packing::loaded(&params.packing(), 3).unwrap();
+        let (bed, stages) = Packing::loaded_for_tests(200, 3);
         let (x, radius) = (&bed.position, &bed.radius);
         let loads = stages.release_loads(radius);
         let n = x.len();

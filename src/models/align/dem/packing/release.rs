@@ -518,10 +518,7 @@ mod tests {
     /// force, stiffness and overlap (a loaded bed of 300 particles, moved off its anchor).
     #[test]
     fn the_unpulled_forces_are_a_fresh_evaluation_of_the_loads() {
-        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
-        let mut params = AlignParams::paper_defaults(material, 0.0);
-        params.particles = 300;
-        let (bed, stages, _) = Packing::loaded(&params.packing(), 5).unwrap();
+        let (bed, stages) = Packing::loaded_for_tests(300, 5);
         let loads = stages.release_loads(&bed.radius);
         let anchor = Anchor::new(bed.position.clone(), 0.7);
         let moved: Vec<_> = (bed.position.iter().enumerate())
