@@ -153,10 +153,16 @@ impl Corrections {
 
     /// Each particle's slab by the height of its centre above the lowest (slabs of
     /// 2 R_max + 2 skin: a listed pair is closer than R_i + R_j + 2 skin, the list's spread
-    /// rule allowing each particle half a skin from its place at the build).
+    /// rule allowing each particle half a skin from its place at the build; taller where that
+    /// would make more slabs than particles, as a bed blown apart would).
     fn cut_slabs(&mut self, position: &[Vector3<f64>], radius: &[f64]) {
-        let height = 2.0 * radius.iter().cloned().fold(0.0, f64::max) + 2.0 * SKIN;
         let bottom = position.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+        let top = position
+            .iter()
+            .map(|p| p.z)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let height = (2.0 * radius.iter().cloned().fold(0.0, f64::max) + 2.0 * SKIN)
+            .max((top - bottom) / position.len() as f64);
         self.slab_of.clear();
         (self.slab_of).extend(position.iter().map(|p| ((p.z - bottom) / height) as u32));
         let slabs = self.slab_of.iter().max().map_or(0, |&k| k as usize + 1);
@@ -498,6 +504,27 @@ mod tests {
         assert_eq!(at_once, one_by_one);
         let bits = |f: &[Load]| f.iter().map(|f| f.0.map(f64::to_bits)).collect::<Vec<_>>();
         assert_eq!(bits(&forces_at_once), bits(&forces_one_by_one));
+    }
+
+    /// A bed blown apart (a sphere a terametre up, one at infinity) is cut into no more slabs
+    /// than it has particles, not into one per 2 R_max + 2 skin of its height.
+    #[test]
+    fn a_bed_blown_apart_gets_no_more_slabs_than_particles() {
+        for far in [1e12, f64::INFINITY] {
+            let position = [
+                Vector3::zeros(),
+                Vector3::new(0.0, 0.0, 1.0),
+                Vector3::new(0.0, 0.0, far),
+            ];
+            let mut corrections = Corrections::default();
+            corrections.cut_slabs(&position, &[1.0; 3]);
+            assert!(
+                corrections.slabs.len() <= 4,
+                "{far}: {} slabs",
+                corrections.slabs.len()
+            );
+            assert_eq!(corrections.slab_of[..2], [0, 0]);
+        }
     }
 
     /// With both spheres of two feeling the force, the residual is the whole bed's: no
