@@ -49,7 +49,7 @@ const COLOURS: usize = 3;
 
 /// A colour's slabs are visited on the pool from this many visits on (a round of fewer is
 /// shorter than the pool's fork and join).
-const PARALLEL_VISITS: usize = 512;
+const PARALLEL_VISITS: usize = 192;
 
 /// What the corrections keep between Newton steps (their vectors reused from one to the next).
 #[derive(Debug)]
