@@ -204,12 +204,16 @@ fn visit_colour(
     let visits: usize = (slabs.iter().skip(colour).step_by(COLOURS))
         .map(|slab| slab.active.len())
         .sum();
-    let mut group: Vec<&mut Slab> = (slabs.iter_mut().skip(colour).step_by(COLOURS)).collect();
-    let visit_slab = |slab: &mut &mut Slab| slab.visit_all(bed, problem, list);
+    let visit_slab = |slab: &mut Slab| slab.visit_all(bed, problem, list);
     if visits >= parallel_from {
-        group.par_iter_mut().for_each(visit_slab);
+        let group = slabs.par_iter_mut().skip(colour).step_by(COLOURS);
+        group.for_each(visit_slab);
     } else {
-        group.iter_mut().for_each(visit_slab);
+        slabs
+            .iter_mut()
+            .skip(colour)
+            .step_by(COLOURS)
+            .for_each(visit_slab);
     }
 }
 
