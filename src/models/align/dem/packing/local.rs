@@ -51,6 +51,9 @@ const COLOURS: usize = 3;
 /// shorter than the pool's fork and join).
 const PARALLEL_VISITS: usize = 192;
 
+/// Particles per task of the slabs' cut (a pass over all particles, twice per correction).
+const CUT_PIECE: usize = 4096;
+
 /// What the corrections keep between Newton steps (their vectors reused from one to the next).
 #[derive(Debug)]
 pub(super) struct Corrections {
@@ -58,21 +61,26 @@ pub(super) struct Corrections {
     parallel_visits: usize,
     /// Each slab's visits of the round and its room.
     slabs: Vec<Slab>,
+    /// Each slab's particles whose force its visits changed first in the round (apart from
+    /// `slabs`: the next round's slabs read their neighbours' while each writes its own).
+    touched: Vec<Vec<usize>>,
     /// Each particle's slab, by its height at the correction's start.
     slab_of: Vec<u32>,
-    /// The particles to visit next (all slabs), ascending.
-    next: Vec<usize>,
-    /// Whether a particle's force changed in this round (so far).
-    touched: Vec<bool>,
+    /// The particles to visit in the first round (all slabs), ascending.
+    first: Vec<usize>,
+    /// The round in which each particle's force last changed (marks that need no clearing).
+    stamp: Vec<u32>,
+    /// The current round's number, counted across corrections (0: none).
+    round: u32,
 }
 
-/// One slab's particles to visit in this round (ascending), the particles whose force its
-/// visits changed, and each touching partner's force on the visited particle before and
-/// after its move.
+/// One slab's particles to visit in this round (ascending), whether their listed partners all
+/// lie in this slab or the next ones, and each touching partner's force on the visited
+/// particle before and after its move.
 #[derive(Debug, Default)]
 struct Slab {
     active: Vec<usize>,
-    touched: Vec<usize>,
+    apart: bool,
     before: Vec<(usize, Vector3<f64>)>,
     after: Vec<(usize, Vector3<f64>)>,
 }
@@ -82,9 +90,11 @@ impl Default for Corrections {
         Self {
             parallel_visits: PARALLEL_VISITS,
             slabs: Vec::new(),
-            slab_of: Vec::new(),
-            next: Vec::new(),
             touched: Vec::new(),
+            slab_of: Vec::new(),
+            first: Vec::new(),
+            stamp: Vec::new(),
+            round: 0,
         }
     }
 }
@@ -110,43 +120,39 @@ impl Corrections {
         target: f64,
     ) -> bool {
         let visit = VISIT * target;
-        self.next.clear();
-        self.next.par_extend(
+        self.first.clear();
+        self.first.par_extend(
             (force.par_iter().enumerate())
                 .filter(|(_, f)| f.0.norm() >= visit)
                 .map(|(i, _)| i),
         );
-        let above = (self.next.iter())
+        let above = (self.first.iter())
             .filter(|&&i| force[i].0.norm() >= target)
             .count();
         if above == 0 || above as f64 > MOST * position.len() as f64 {
             return false;
         }
         self.cut_slabs(position, problem.0.radius);
+        self.deal(list);
         for _ in 0..ROUNDS {
-            self.deal();
-            let apart = self.slabs_apart(list);
-            let bed = Shared::new(position, force, &mut self.touched);
+            let visits: usize = self.slabs.iter().map(|slab| slab.active.len()).sum();
+            if visits == 0 {
+                break;
+            }
+            let apart = self.slabs.iter().all(|slab| slab.apart);
+            let round = self.next_round();
+            let bed = Shared::new(position, force, &mut self.stamp, round);
             let parallel_from = if apart {
                 self.parallel_visits
             } else {
                 usize::MAX
             };
             for colour in 0..COLOURS {
-                visit_colour(&mut self.slabs, colour, parallel_from, bed, (problem, list));
+                let slabs = (&mut self.slabs[..], &mut self.touched[..]);
+                visit_colour(slabs, colour, parallel_from, bed, (problem, list));
             }
-            self.next.clear();
-            for slab in &mut self.slabs {
-                self.next.append(&mut slab.touched);
-            }
-            self.next.sort_unstable();
-            for &j in &self.next {
-                self.touched[j] = false;
-            }
-            self.next.retain(|&j| force[j].0.norm() >= visit);
-            if self.next.is_empty() {
-                break;
-            }
+            let keep = |j: usize| force[j].0.norm() >= visit;
+            self.gather(apart, visits >= self.parallel_visits, keep, list);
         }
         true
     }
@@ -156,46 +162,90 @@ impl Corrections {
     /// rule allowing each particle half a skin from its place at the build; taller where that
     /// would make more slabs than particles, as a bed blown apart would).
     fn cut_slabs(&mut self, position: &[Vector3<f64>], radius: &[f64]) {
-        let bottom = position.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-        let top = position
-            .iter()
-            .map(|p| p.z)
-            .fold(f64::NEG_INFINITY, f64::max);
-        let height = (2.0 * radius.iter().cloned().fold(0.0, f64::max) + 2.0 * SKIN)
-            .max((top - bottom) / position.len() as f64);
+        let (bottom, top, widest) = (position.par_iter().zip(radius))
+            .with_min_len(CUT_PIECE)
+            .map(|(p, &r)| (p.z, p.z, r))
+            .reduce(
+                || (f64::INFINITY, f64::NEG_INFINITY, 0.0),
+                |a, b| (a.0.min(b.0), a.1.max(b.1), a.2.max(b.2)),
+            );
+        let height = (2.0 * widest + 2.0 * SKIN).max((top - bottom) / position.len() as f64);
         self.slab_of.clear();
-        (self.slab_of).extend(position.iter().map(|p| ((p.z - bottom) / height) as u32));
-        let slabs = self.slab_of.iter().max().map_or(0, |&k| k as usize + 1);
+        (self.slab_of).par_extend(
+            (position.par_iter())
+                .with_min_len(CUT_PIECE)
+                .map(|p| ((p.z - bottom) / height) as u32),
+        );
+        let slabs = self.slab_of.par_iter().max().map_or(0, |&k| k as usize + 1);
         self.slabs.resize_with(slabs, Slab::default);
-        self.touched.resize(position.len(), false);
+        self.touched.resize_with(slabs, Vec::new);
+        self.stamp.resize(position.len(), 0);
     }
 
-    /// Hands the particles to visit (`next`, ascending) to their slabs.
-    fn deal(&mut self) {
+    /// Hands the first round's particles (`first`, ascending) to their slabs.
+    fn deal(&mut self, list: &NeighborList<3>) {
         for slab in &mut self.slabs {
             slab.active.clear();
         }
-        for &i in &self.next {
+        for &i in &self.first {
             self.slabs[self.slab_of[i] as usize].active.push(i);
+        }
+        let slab_of = &self.slab_of;
+        (self.slabs.par_iter_mut().enumerate())
+            .for_each(|(t, slab)| slab.check_apart(t, slab_of, list));
+    }
+
+    /// Hands each slab the particles whose force the round changed, that lie in it and still
+    /// `keep` their visit, ascending: the next round's visits (on the pool where `parallel`,
+    /// the same lists either way; as the whole round's changes sorted and dealt would be). A
+    /// changed particle is the visiting slab's or a listed partner: in the slab or the next
+    /// ones where the round's slabs were `apart`, else anywhere.
+    fn gather(
+        &mut self,
+        apart: bool,
+        parallel: bool,
+        keep: impl Fn(usize) -> bool + Sync,
+        list: &NeighborList<3>,
+    ) {
+        let (touched, slab_of) = (&self.touched[..], &self.slab_of[..]);
+        let n = touched.len();
+        let gather = |(t, slab): (usize, &mut Slab)| {
+            let from = if apart {
+                t.saturating_sub(1)..(t + 2).min(n)
+            } else {
+                0..n
+            };
+            slab.active.clear();
+            for changed in &touched[from] {
+                let here = changed.iter().filter(|&&j| slab_of[j] as usize == t);
+                slab.active.extend(here.filter(|&&j| keep(j)));
+            }
+            slab.active.sort_unstable();
+            slab.check_apart(t, slab_of, list);
+        };
+        if parallel {
+            self.slabs.par_iter_mut().enumerate().for_each(gather);
+        } else {
+            self.slabs.iter_mut().enumerate().for_each(gather);
         }
     }
 
-    /// Whether every particle to visit has its listed partners in its own slab or the next
-    /// ones (what the slabs' height provides; where not, the slabs are visited one after
-    /// the other, which gives the same bits).
-    fn slabs_apart(&self, list: &NeighborList<3>) -> bool {
-        let slab = |j: u32| self.slab_of[j as usize];
-        self.next.iter().all(|&i| {
-            let own = self.slab_of[i];
-            list.of(i).iter().all(|&j| slab(j).abs_diff(own) <= 1)
-        })
+    /// Numbers a new round: marks of earlier rounds then differ from it (all cleared where the
+    /// count wraps round).
+    fn next_round(&mut self) -> u32 {
+        self.round = self.round.wrapping_add(1);
+        if self.round == 0 {
+            self.stamp.fill(0);
+            self.round = 1;
+        }
+        self.round
     }
 }
 
 /// Visits the slabs of one colour: on the pool from `parallel_from` visits on, else one after
 /// another (the same bits).
 fn visit_colour(
-    slabs: &mut [Slab],
+    (slabs, touched): (&mut [Slab], &mut [Vec<usize>]),
     colour: usize,
     parallel_from: usize,
     bed: Shared,
@@ -204,31 +254,41 @@ fn visit_colour(
     let visits: usize = (slabs.iter().skip(colour).step_by(COLOURS))
         .map(|slab| slab.active.len())
         .sum();
-    let visit_slab = |slab: &mut Slab| slab.visit_all(bed, problem, list);
+    let visit_slab = |(slab, touched): (&mut Slab, &mut Vec<usize>)| {
+        slab.visit_all(touched, bed, problem, list);
+    };
     if visits >= parallel_from {
-        let group = slabs.par_iter_mut().skip(colour).step_by(COLOURS);
-        group.for_each(visit_slab);
+        let group = slabs.par_iter_mut().zip(touched);
+        group.skip(colour).step_by(COLOURS).for_each(visit_slab);
     } else {
-        slabs
-            .iter_mut()
-            .skip(colour)
-            .step_by(COLOURS)
-            .for_each(visit_slab);
+        let group = slabs.iter_mut().zip(touched);
+        group.skip(colour).step_by(COLOURS).for_each(visit_slab);
     }
 }
 
 impl Slab {
-    /// Visits the slab's particles in index order.
+    /// Visits the slab's particles in index order; `touched` gets the particles whose force
+    /// they changed first in the round.
     fn visit_all(
         &mut self,
+        touched: &mut Vec<usize>,
         bed: Shared,
         problem: (&Loads, &Container, &Anchor),
         list: &NeighborList<3>,
     ) {
-        self.touched.clear();
+        touched.clear();
         for k in 0..self.active.len() {
-            self.visit(self.active[k], bed, problem, list);
+            self.visit(self.active[k], touched, bed, problem, list);
         }
+    }
+
+    /// Sets `apart`: whether each particle to visit, this slab being slab t, has its listed
+    /// partners in it or the next ones (what the slabs' height provides; where not, the slabs
+    /// are visited one after the other, which gives the same bits).
+    fn check_apart(&mut self, t: usize, slab_of: &[u32], list: &NeighborList<3>) {
+        let own = t as u32;
+        let near = |j: &u32| slab_of[*j as usize].abs_diff(own) <= 1;
+        self.apart = self.active.iter().all(|&i| list.of(i).iter().all(near));
     }
 
     /// Moves particle i by one Newton step on its own net force and updates the forces on it
@@ -236,6 +296,7 @@ impl Slab {
     fn visit(
         &mut self,
         i: usize,
+        touched: &mut Vec<usize>,
         bed: Shared,
         problem: (&Loads, &Container, &Anchor),
         list: &NeighborList<3>,
@@ -260,7 +321,7 @@ impl Slab {
         for j in std::iter::once(i).chain(partners) {
             // SAFETY: as above
             if unsafe { bed.first_touch(j) } {
-                self.touched.push(j);
+                touched.push(j);
             }
         }
     }
@@ -271,14 +332,15 @@ impl Slab {
 /// Safety of its use: a task reads the positions of its slab and the next ones, moves its own
 /// slab's particles and writes the forces on them and on their listed partners; the tasks
 /// running at once are the slabs of one colour, three slabs apart, and every listed partner of
-/// a visited particle lies in its own or the next slab (`Corrections::slabs_apart`, else the
+/// a visited particle lies in its own or the next slab (`Slab::check_apart`, else the
 /// slabs run one after the other), so no element one task writes is read or written by
 /// another while it runs.
 #[derive(Clone, Copy)]
 struct Shared<'a> {
     position: *mut Vector3<f64>,
     force: *mut Load,
-    touched: *mut bool,
+    stamp: *mut u32,
+    round: u32,
     len: usize,
     _borrow: PhantomData<&'a mut [Load]>,
 }
@@ -288,16 +350,20 @@ unsafe impl Send for Shared<'_> {}
 unsafe impl Sync for Shared<'_> {}
 
 impl<'a> Shared<'a> {
+    /// The bed's positions and forces, and each particle's mark (`round` where its force
+    /// changed in this round).
     fn new(
         position: &'a mut [Vector3<f64>],
         force: &'a mut [Load],
-        touched: &'a mut [bool],
+        stamp: &'a mut [u32],
+        round: u32,
     ) -> Self {
-        assert!(position.len() == force.len() && force.len() == touched.len());
+        assert!(position.len() == force.len() && force.len() == stamp.len());
         Self {
             position: position.as_mut_ptr(),
             force: force.as_mut_ptr(),
-            touched: touched.as_mut_ptr(),
+            stamp: stamp.as_mut_ptr(),
+            round,
             len: position.len(),
             _borrow: PhantomData,
         }
@@ -321,8 +387,8 @@ impl<'a> Shared<'a> {
     unsafe fn first_touch(&self, i: usize) -> bool {
         assert!(i < self.len);
         // SAFETY: in bounds; exclusive by the caller's promise
-        let mark = unsafe { &mut *self.touched.add(i) };
-        !std::mem::replace(mark, true)
+        let mark = unsafe { &mut *self.stamp.add(i) };
+        std::mem::replace(mark, self.round) != self.round
     }
 
     /// Moves particle i by `step`.
@@ -481,8 +547,9 @@ mod tests {
                 ..Corrections::default()
             };
             corrections.cut_slabs(&position, &bed.radius);
-            corrections.next = (0..position.len()).collect();
-            let apart = corrections.slabs_apart(&list);
+            corrections.first = (0..position.len()).collect();
+            corrections.deal(&list);
+            let apart = corrections.slabs.iter().all(|slab| slab.apart);
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
@@ -508,6 +575,70 @@ mod tests {
         assert_eq!(at_once, one_by_one);
         let bits = |f: &[Load]| f.iter().map(|f| f.0.map(f64::to_bits)).collect::<Vec<_>>();
         assert_eq!(bits(&forces_at_once), bits(&forces_one_by_one));
+    }
+
+    /// Each slab's next visits, gathered from its own and its neighbours' changed particles,
+    /// are what sorting the round's changes, keeping those that still feel the force and
+    /// dealing them to their slabs gave: on a loaded bed of 600 particles, each particle
+    /// changed by its own slab or a neighbour, on the pool or not, and gathered from every
+    /// slab where the round's slabs were not apart.
+    #[test]
+    fn slabs_gather_the_changes_that_sorting_and_dealing_gave() {
+        use crate::models::align::dem::packing::{as_gathered, Packing};
+        let (bed, stages) = Packing::loaded_for_tests(600, 4);
+        let loads = stages.release_loads(&bed.radius);
+        let n = bed.position.len();
+        let (mut list, mut force) = (NeighborList::rebuilt_on_spread(SKIN), Vec::new());
+        force.resize(n, (Vector3::zeros(), 0.0, 0.0, 0));
+        let mut work = ContactWork::default();
+        let (x, container) = (&bed.position, &bed.container);
+        loads.evaluate(x, container, &mut list, &mut force, &mut work, as_gathered);
+        let mut corrections = Corrections::default();
+        corrections.cut_slabs(x, &bed.radius);
+        let slabs = corrections.slabs.len();
+        assert!(slabs >= 4, "{slabs} slabs");
+        // every fourth particle unchanged; the others changed by the slab below theirs, their
+        // own or the one above, in a scrambled order
+        let scrambled = (0..n).map(|k| (k, (k * 7919) % n));
+        for (k, j) in scrambled.filter(|(k, _)| k % 4 != 0) {
+            let own = corrections.slab_of[j] as usize;
+            let by = (own + k % 4).saturating_sub(2).min(slabs - 1);
+            corrections.touched[by].push(j);
+        }
+        let keep = |j: usize| j % 5 != 0;
+        let mut sorted: Vec<usize> = corrections.touched.concat();
+        sorted.sort_unstable();
+        sorted.retain(|&j| keep(j));
+        let mut dealt = vec![Vec::new(); slabs];
+        for &j in &sorted {
+            dealt[corrections.slab_of[j] as usize].push(j);
+        }
+        for (apart, parallel) in [(true, false), (true, true), (false, false), (false, true)] {
+            corrections.gather(apart, parallel, keep, &list);
+            let gathered: Vec<_> = corrections.slabs.iter().map(|s| s.active.clone()).collect();
+            assert_eq!(gathered, dealt, "apart {apart}, parallel {parallel}");
+        }
+    }
+
+    /// A particle marked in an earlier round is not marked in this one, nor after the rounds'
+    /// count wraps round (particle 0 was marked in a round 1 long ago).
+    #[test]
+    fn marks_of_earlier_rounds_do_not_count() {
+        let (mut position, mut force) = (vec![Vector3::zeros(); 2], vec![Default::default(); 2]);
+        let mut corrections = Corrections {
+            stamp: vec![1, 0],
+            round: u32::MAX - 1,
+            ..Corrections::default()
+        };
+        for (round, touched) in [(u32::MAX, &[1][..]), (1, &[0, 1][..])] {
+            assert_eq!(corrections.next_round(), round);
+            let bed = Shared::new(&mut position, &mut force, &mut corrections.stamp, round);
+            for &i in touched {
+                // SAFETY (here and below): one task
+                assert!(unsafe { bed.first_touch(i) }, "round {round}: {i} first");
+                assert!(!unsafe { bed.first_touch(i) }, "round {round}: {i} again");
+            }
+        }
     }
 
     /// A bed blown apart (a sphere a terametre up, one at infinity) is cut into no more slabs
