@@ -136,6 +136,10 @@ fn align_settling_contacts_are_counted_once_per_pair() {
             "stage {k}: {builds}"
         );
     }
+    // an inertial release (like any bed below `large_bed_from`) takes no Newton steps
+    let newton = &row["release_newton"];
+    assert_eq!(newton["steps"].as_u64(), Some(0), "{newton}");
+    assert_eq!(newton["solve_s"].as_f64(), Some(0.0), "{newton}");
     let fire_contacts = f(fire, "contacts_per_particle");
     assert!(fire_contacts > 0.0 && fire_contacts < f(fire, "list_entries_per_particle"));
     assert!(close(

@@ -7,7 +7,10 @@
 //! `settle_contact_evaluations_per_s`, touching pairs evaluated per second counted once each
 //! (the count LAMMPS with Newton's third law on evaluates, bench/lammps/align-hertz.sh), also
 //! per CPU second (per core on a loaded machine); `settle_stage_s` and `settle_list_builds`,
-//! each stage's wall time and neighbour-list builds. `loaded_contacts_per_particle` and
+//! each stage's wall time and neighbour-list builds; `release_newton`, where the release
+//! takes Newton steps (from `large_bed_from` particles on), its Newton steps, linear
+//! iterations, local corrections and their visits, and the wall time of storing the
+//! stiffnesses, of the solves and of the corrections. `loaded_contacts_per_particle` and
 //! `released_contacts_per_particle` (printed as `z_rel`) are the particle contacts per particle
 //! at the end of settling (the settling force on) and of the relaxation (the packing the
 //! alignment starts from): whether the released bed kept its contact network
@@ -118,6 +121,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
                 "settle_contact_evaluations_per_cpu_s": contact_evaluations / settle_cpu_s,
                 "settle_stage_s": work.map(|w| w.seconds),
                 "settle_list_builds": work.map(|w| w.list_builds),
+                "release_newton": work[2].newton,
                 "fire_stages": fire,
                 "loaded_contacts_per_particle": loaded,
                 "released_contacts_per_particle": released,

@@ -32,7 +32,7 @@ use super::AlignOutcome;
 use crate::output::snapshots::Recorder;
 pub use integrator::time_step_s;
 pub use observables::{alignment_degree, crossing_time};
-pub use packing::{ContactWork, Packing};
+pub use packing::{ContactWork, NewtonWork, Packing};
 use run::Run;
 pub use torque::magnetic_torque;
 

@@ -495,6 +495,27 @@ pub struct ContactWork {
     /// Neighbour-list builds in the stage's force evaluations (the Newton release's local
     /// corrections reuse the list of the evaluation before them).
     pub list_builds: u64,
+    /// The Newton release's parts (zero in other stages and releases).
+    pub newton: NewtonWork,
+}
+
+/// What the Newton release's parts cost (benchmarks: where its time goes without a profiler).
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct NewtonWork {
+    /// Newton steps.
+    pub steps: u64,
+    /// Linear conjugate-gradient iterations, over all Newton steps.
+    pub linear_iterations: u64,
+    /// Local corrections made.
+    pub corrections: u64,
+    /// Particle visits of the local corrections.
+    pub correction_visits: u64,
+    /// Wall time storing the contact stiffnesses, s.
+    pub linearize_s: f64,
+    /// Wall time of the linear solves, s.
+    pub solve_s: f64,
+    /// Wall time of the local corrections (the force evaluations after them not included), s.
+    pub corrections_s: f64,
 }
 
 /// A stage's (steps, work) with its wall time in the work.

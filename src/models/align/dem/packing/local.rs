@@ -105,8 +105,8 @@ impl Corrections {
     /// there): Gauss–Seidel rounds of one-particle Newton steps (each particle moved to where
     /// its linearized net force vanishes, its partners held, by at most `MAX_MOVE`) over the
     /// particles at `VISIT` × `target` or more, with `force` kept pair by pair as they move,
-    /// until none is left or for `ROUNDS` rounds. Returns whether it ran (then `force` holds
-    /// approximate values: the caller evaluates again).
+    /// until none is left or for `ROUNDS` rounds. Returns the visits where it ran (then `force`
+    /// holds approximate values: the caller evaluates again), `None` where it did not.
     ///
     /// A round visits the slabs of one colour after another (`COLOURS`), each slab's particles
     /// in index order; the slabs of a colour share nothing, so they are visited at once on the
@@ -118,7 +118,7 @@ impl Corrections {
         list: &NeighborList<3>,
         force: &mut [Load],
         target: f64,
-    ) -> bool {
+    ) -> Option<usize> {
         let visit = VISIT * target;
         self.first.clear();
         self.first.par_extend(
@@ -130,15 +130,17 @@ impl Corrections {
             .filter(|&&i| force[i].0.norm() >= target)
             .count();
         if above == 0 || above as f64 > MOST * position.len() as f64 {
-            return false;
+            return None;
         }
         self.cut_slabs(position, problem.0.radius);
         self.deal(list);
+        let mut all_visits = 0;
         for _ in 0..ROUNDS {
             let visits: usize = self.slabs.iter().map(|slab| slab.active.len()).sum();
             if visits == 0 {
                 break;
             }
+            all_visits += visits;
             let apart = self.slabs.iter().all(|slab| slab.apart);
             let round = self.next_round();
             let bed = Shared::new(position, force, &mut self.stamp, round);
@@ -154,7 +156,7 @@ impl Corrections {
             let keep = |j: usize| force[j].0.norm() >= visit;
             self.gather(apart, visits >= self.parallel_visits, keep, list);
         }
-        true
+        Some(all_visits)
     }
 
     /// Each particle's slab by the height of its centre above the lowest (slabs of
@@ -506,7 +508,8 @@ mod tests {
             let (mut list, mut force) = (NeighborList::rebuilt_on_spread(SKIN), Vec::new());
             let target = 1e-9 * evaluate(problem, &position, &mut list, &mut force);
             let mut corrections = Corrections::default();
-            assert!(corrections.correct(&mut position, problem, &list, &mut force, target));
+            let visits = corrections.correct(&mut position, problem, &list, &mut force, target);
+            assert!(visits.is_some_and(|v| v >= 2), "{visits:?}");
             let left = evaluate(problem, &position, &mut list, &mut force);
             assert!(left < target, "{left} against {target}");
             let (out0, out1) = (start[0].x - position[0].x, position[1].x - start[1].x);
@@ -557,7 +560,7 @@ mod tests {
             let ran = pool
                 .install(|| corrections.correct(&mut position, problem, &list, &mut force, target));
             (
-                apart && ran && corrections.slabs.len() >= 2 * COLOURS,
+                apart && ran.is_some() && corrections.slabs.len() >= 2 * COLOURS,
                 position,
                 force,
             )
@@ -673,7 +676,8 @@ mod tests {
             let pressed = evaluate(problem, &position, &mut list, &mut force);
             let mut corrections = Corrections::default();
             let target = 0.5 * pressed;
-            assert!(!corrections.correct(&mut position, problem, &list, &mut force, target));
+            let visits = corrections.correct(&mut position, problem, &list, &mut force, target);
+            assert_eq!(visits, None);
             assert_eq!(position, anchor.position);
         });
     }

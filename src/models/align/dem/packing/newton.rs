@@ -20,6 +20,8 @@
 //! the overshoots of gaps the step closed, which took most of the Newton steps before
 //! (results/bench/README.md, "Local corrections in the release").
 
+use std::time::Instant;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -224,8 +226,16 @@ impl Newton {
                 return true;
             }
             let (c, at) = (anchor.stiffness, &*position);
+            let start = Instant::now();
             self.stiffness.linearize(loads, at, container, list, c);
-            self.solve_linear(force, (INNER * target).max(FORCING * max_force));
+            let solving = Instant::now();
+            let tolerance = (INNER * target).max(FORCING * max_force);
+            let iterations = self.solve_linear(force, tolerance);
+            let parts = &mut work.newton;
+            parts.steps += 1;
+            parts.linear_iterations += iterations as u64;
+            parts.linearize_s += (solving - start).as_secs_f64();
+            parts.solve_s += solving.elapsed().as_secs_f64();
             // never moving a particle further than MAX_MOVE (the whole step scaled)
             let reach = (self.step.par_iter())
                 .map(|p| p.norm())
@@ -234,24 +244,47 @@ impl Newton {
             (position.par_iter_mut().zip(&self.step)).for_each(|(x, p)| *x += scale * p);
             let (sources, problem) = ((loads, container), (loads, container, anchor));
             max_force = anchor.net_forces(sources, position, (list, force), work);
-            if max_force >= target && self.local.correct(position, problem, list, force, target) {
+            if max_force >= target && self.correct(position, problem, (list, force), target, work) {
                 max_force = anchor.net_forces(sources, position, (list, force), work);
             }
         }
         max_force < target
     }
 
+    /// `Corrections::correct`, its time and visits counted in `work`; returns whether it ran.
+    fn correct(
+        &mut self,
+        position: &mut [Vector3<f64>],
+        problem: (&Loads, &Container, &Anchor),
+        (list, force): (&NeighborList<3>, &mut [Load]),
+        target: f64,
+        work: &mut ContactWork,
+    ) -> bool {
+        let start = Instant::now();
+        let Some(visits) = self.local.correct(position, problem, list, force, target) else {
+            return false;
+        };
+        let parts = &mut work.newton;
+        parts.corrections += 1;
+        parts.correction_visits += visits as u64;
+        parts.corrections_s += start.elapsed().as_secs_f64();
+        true
+    }
+
     /// Solves H p = F into `self.step` until the largest residual is below `target`, until H
     /// stops being positive along the search direction (round-off in a floppy bed), or for at
     /// most `LINEAR_LIMIT` iterations (the Newton step then takes the solve as it stands).
-    fn solve_linear(&mut self, force: &[Load], target: f64) {
+    /// Returns the iterations.
+    fn solve_linear(&mut self, force: &[Load], target: f64) -> usize {
         let ([mut rr], _) = ordered_update_in(CHUNK, &mut self.residual, |i, r| {
             *r = force[i].0;
             ([r.norm_squared()], 0.0)
         });
         self.step.par_iter_mut().for_each(|p| *p = Vector3::zeros());
         let (mut alpha, mut beta) = (0.0, 0.0);
-        for _ in 0..LINEAR_LIMIT {
+        let mut iterations = 0;
+        while iterations < LINEAR_LIMIT {
+            iterations += 1;
             let cg = Cg {
                 step: &mut self.step,
                 direction: &mut self.direction,
@@ -261,7 +294,7 @@ impl Newton {
             let curvature = (self.stiffness).conjugate(&self.residual, (alpha, beta), cg);
             // H not positive along d (or a NaN curvature): keep the step so far
             if curvature.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                return;
+                return iterations;
             }
             alpha = rr / curvature;
             let q = &self.product;
@@ -279,6 +312,7 @@ impl Newton {
             rr = next;
         }
         (self.step.par_iter_mut().zip(&self.direction)).for_each(|(p, d)| *p += alpha * d);
+        iterations
     }
 }
 

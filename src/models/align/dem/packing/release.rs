@@ -455,6 +455,14 @@ mod tests {
                 // (measured: 0.0035 R_av with the local corrections, 0.0057 without them,
                 // against 0.065 for the 1 % solves at h k_max = 10³)
                 assert!(loose < 0.2 * far, "capped steps: {loose} vs {far}");
+                // and its parts are counted: at least a Newton step and a linear iteration
+                // per backward-Euler step, each correction at least one visit
+                let parts = loose_work.newton;
+                assert!(parts.steps > 0 && parts.linear_iterations >= parts.steps);
+                assert!(parts.correction_visits >= parts.corrections && parts.corrections > 0);
+                assert!(parts.linearize_s > 0.0 && parts.solve_s > 0.0);
+            } else {
+                assert_eq!(loose_work.newton.steps, 0, "no Newton steps");
             }
             let kept_loosely = contacts(loose_work);
             assert!(
