@@ -506,7 +506,8 @@ pub struct NewtonWork {
     pub steps: u64,
     /// Linear conjugate-gradient iterations, over all Newton steps.
     pub linear_iterations: u64,
-    /// Local corrections made.
+    /// Local corrections made (the calls that found the residual too spread to correct are
+    /// not counted, their time is).
     pub corrections: u64,
     /// Particle visits of the local corrections.
     pub correction_visits: u64,

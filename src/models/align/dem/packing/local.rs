@@ -172,13 +172,15 @@ impl Corrections {
                 |a, b| (a.0.min(b.0), a.1.max(b.1), a.2.max(b.2)),
             );
         let height = (2.0 * widest + 2.0 * SKIN).max((top - bottom) / position.len() as f64);
+        let slab = |z: f64| ((z - bottom) / height) as u32;
         self.slab_of.clear();
         (self.slab_of).par_extend(
             (position.par_iter())
                 .with_min_len(CUT_PIECE)
-                .map(|p| ((p.z - bottom) / height) as u32),
+                .map(|p| slab(p.z)),
         );
-        let slabs = self.slab_of.par_iter().max().map_or(0, |&k| k as usize + 1);
+        // the highest centre's slab is the last (the cut is monotone in the height)
+        let slabs = slab(top) as usize + 1;
         self.slabs.resize_with(slabs, Slab::default);
         self.touched.resize_with(slabs, Vec::new);
         self.stamp.resize(position.len(), 0);

@@ -251,7 +251,8 @@ impl Newton {
         max_force < target
     }
 
-    /// `Corrections::correct`, its time and visits counted in `work`; returns whether it ran.
+    /// `Corrections::correct`, its time (whether it ran or not) and visits counted in `work`;
+    /// returns whether it ran.
     fn correct(
         &mut self,
         position: &mut [Vector3<f64>],
@@ -261,14 +262,12 @@ impl Newton {
         work: &mut ContactWork,
     ) -> bool {
         let start = Instant::now();
-        let Some(visits) = self.local.correct(position, problem, list, force, target) else {
-            return false;
-        };
+        let visits = self.local.correct(position, problem, list, force, target);
         let parts = &mut work.newton;
-        parts.corrections += 1;
-        parts.correction_visits += visits as u64;
         parts.corrections_s += start.elapsed().as_secs_f64();
-        true
+        parts.corrections += u64::from(visits.is_some());
+        parts.correction_visits += visits.unwrap_or(0) as u64;
+        visits.is_some()
     }
 
     /// Solves H p = F into `self.step` until the largest residual is below `target`, until H
