@@ -36,10 +36,12 @@ const ROUNDS: usize = 100;
 /// A particle is visited while its net force is at least this fraction of the step's target.
 /// Over 24 paired seeds at N = 10⁴ the released beds keep τ_0.95, τ_0.90, the contacts, φ and
 /// the sticking fraction of 0.5 (the value before 2026-12-06, sixth session) within one
-/// standard error, with 2.2× fewer visits; 0.9 also did (within 1.2), 0.95 from the
-/// particles above the target lost 39 ± 12 contacts against Newton steps alone over 12 seeds,
-/// and against those every value from 0.5 up shifts φ by −0.0004 to −0.0006, a sixth of the
-/// seeds' sd (results/bench/README.md, "Fewer visits in the release's corrections").
+/// standard error, with 2.2× fewer visits. 0.9 did too (within 1.2) and was faster, but
+/// against Newton steps alone the contacts fall as the value rises (−17, −25, −28 at 0.5,
+/// 0.75, 0.9), and a trial visiting down to 0.95 from the particles above the target lost
+/// 39 ± 12 over 12 seeds; every value from 0.5 up shifts φ there by −0.0004 to −0.0006, a
+/// sixth of the seeds' sd (results/bench/README.md, "Fewer visits in the release's
+/// corrections").
 const VISIT: f64 = 0.75;
 
 /// The rounds visit horizontal slabs in this many colours, slab k in colour k mod `COLOURS`:
