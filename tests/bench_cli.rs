@@ -147,6 +147,15 @@ fn align_settling_contacts_are_counted_once_per_pair() {
         n * fire_contacts / 2.0 * (f(fire, "steps") + 2.0),
         1e-9
     ));
+    // The heap's peaks are counted by the binary's allocator: each stage holds at least the
+    // bed's centres (24 bytes a particle), and the row's peak is the larger of the two.
+    let (packing_heap, alignment_heap) = (
+        f(row, "packing_peak_heap_mb"),
+        f(row, "alignment_peak_heap_mb"),
+    );
+    let centres_mb = n * 24.0 / (1024.0 * 1024.0);
+    assert!(packing_heap > centres_mb && alignment_heap > centres_mb);
+    assert_eq!(f(row, "peak_heap_mb"), packing_heap.max(alignment_heap));
 }
 
 /// `bench blast` runs the interacting example once per near-field precision and reports each

@@ -12,6 +12,7 @@ mod analyze;
 mod bed;
 mod bench;
 mod blast;
+mod heap;
 mod params;
 mod progress;
 mod run;
@@ -25,6 +26,8 @@ use crate::models::align::study::AlignModel;
 use crate::models::bed::study::BedModel;
 use crate::models::blast::study::BlastModel;
 use crate::{Error, Result};
+
+pub use heap::CountingAllocator;
 
 /// Exit code of bad input.
 pub const EXIT_INPUT: i32 = 2;

@@ -12,7 +12,9 @@
 use serde_json::json;
 
 use super::super::params::Given;
-use super::{count, counts, cpu_seconds, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs};
+use super::{
+    count, counts, cpu_seconds, peak_heap_mb, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs,
+};
 use crate::models::bed::study::BedModel;
 use crate::Result;
 
@@ -137,5 +139,6 @@ fn row(
         "cycle_work_J": o.cycle_work,
         "failure": o.failure,
         "peak_rss_mb": peak_rss_mb(),
+        "peak_heap_mb": peak_heap_mb(),
     }))
 }

@@ -57,21 +57,20 @@ const CHUNK: usize = 256;
 const LINEAR_LIMIT: usize = 1000;
 
 /// One contact of a linearization: its stiffness k acting on the relative displacement
-/// Δ = d_i − d_j (d_j = 0 for a surface) adds k (n·Δ) n to (H d)_i. Single precision: the
-/// product only steers the solve, whose stop rule uses the true forces.
+/// Δ = d_i − d_j (d_j = 0 for a surface) adds k (n·Δ) n = (m·Δ) m to (H d)_i, stored as
+/// m = √k n: 16 bytes a contact, which the solves stream once per product. Single precision:
+/// the product only steers the solve, whose stop rule uses the true forces.
 #[derive(Debug, Clone, Copy)]
 struct Spring {
     partner: u32,
-    normal: [f32; 3],
-    stiffness: f32,
+    scaled_normal: [f32; 3],
 }
 
 impl Spring {
     fn new(partner: u32, normal: Vector3<f64>, stiffness: f64) -> Self {
         Self {
             partner,
-            normal: normal.map(|x| x as f32).into(),
-            stiffness: stiffness as f32,
+            scaled_normal: (stiffness.sqrt() * normal).map(|x| x as f32).into(),
         }
     }
 }
@@ -157,8 +156,8 @@ impl Stiffness {
                             FIXED => ri,
                             j => ri - residual[j as usize],
                         };
-                        let n = Vector3::from(s.normal).cast::<f64>();
-                        h += (f64::from(s.stiffness) * n.dot(&delta)) * n;
+                        let m = Vector3::from(s.scaled_normal).cast::<f64>();
+                        h += m.dot(&delta) * m;
                     }
                     *p += alpha * *d;
                     *d = ri + beta * *d;
