@@ -1,6 +1,7 @@
 //! The heap's live bytes, counted: the allocator `magopt` runs with, so that `magopt bench`
 //! can report the peak of what a run holds beside the peak resident set, which also holds
-//! what the C allocator keeps after frees (results/bench/README.md, "Memory").
+//! what the C allocator keeps after frees (results/bench/README.md, "Memory per particle,
+//! counted").
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};

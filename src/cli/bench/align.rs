@@ -19,10 +19,7 @@
 use serde_json::json;
 use std::time::Instant;
 
-use super::{
-    counts, cpu_seconds, peak_heap_mb, peak_rss_mb, pool, reset_peak_heap, reset_peak_rss, run_on,
-    BenchArgs,
-};
+use super::{counts, cpu_seconds, heap, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs};
 use crate::materials::MaterialDb;
 use crate::models::align::dem::{self, ContactWork, Packing};
 use crate::models::align::AlignParams;
@@ -83,8 +80,8 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let (packing, work) = run_on(&pool, || Packing::generate_counted(&params.packing(), 1))
                 .map_err(Error::Output)?;
             let settle_s = started.elapsed().as_secs_f64();
-            let packing_heap_mb = peak_heap_mb();
-            reset_peak_heap();
+            let packing_heap_mb = heap::peak_mb();
+            heap::reset_peak();
             let settle_cpu_s = cpu_seconds() - cpu_start;
             let die = params.particles;
             let packing = packing.tiled(tiles);
@@ -100,7 +97,7 @@ pub(super) fn run(db: &MaterialDb, args: &BenchArgs) -> Result<Vec<serde_json::V
             let outcome = run_on(&pool, || dem::align(&params, &packing, None));
             let settle_rate = (settle_steps * die) as f64 / settle_s;
             let align_rate = (outcome.steps * n) as f64 / outcome.wall_time_s;
-            let (peak_mb, alignment_heap_mb) = (peak_rss_mb(), peak_heap_mb());
+            let (peak_mb, alignment_heap_mb) = (peak_rss_mb(), heap::peak_mb());
             let heap_mb = packing_heap_mb.max(alignment_heap_mb);
             println!(
                 "{n:>7} {t:>3} {settle_s:>9.1} {settle_steps:>8} {settle_rate:>11.3e} {contacts_per_particle:>9.2} {:>10.3e} {released:>5.2} {:>6} {:>7} {:>9.2} {align_rate:>10.3e} {:>8.4} {peak_mb:>7.1} {heap_mb:>7.1}",

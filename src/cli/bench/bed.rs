@@ -13,7 +13,7 @@ use serde_json::json;
 
 use super::super::params::Given;
 use super::{
-    count, counts, cpu_seconds, peak_heap_mb, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs,
+    count, counts, cpu_seconds, heap, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs,
 };
 use crate::models::bed::study::BedModel;
 use crate::Result;
@@ -139,6 +139,6 @@ fn row(
         "cycle_work_J": o.cycle_work,
         "failure": o.failure,
         "peak_rss_mb": peak_rss_mb(),
-        "peak_heap_mb": peak_heap_mb(),
+        "peak_heap_mb": heap::peak_mb(),
     }))
 }

@@ -12,7 +12,7 @@
 use serde_json::json;
 
 use super::{
-    count, counts, cpu_seconds, peak_heap_mb, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs,
+    count, counts, cpu_seconds, heap, peak_rss_mb, pool, reset_peak_rss, run_on, BenchArgs,
 };
 use crate::models::blast::interact::{near_field_error, StageTimes};
 use crate::models::blast::study::BlastModel;
@@ -141,7 +141,7 @@ fn measure(
         "near_field_error_rms": error.map(|e| e.1),
         "failure": o.failure,
         "peak_rss_mb": peak,
-        "peak_heap_mb": peak_heap_mb(),
+        "peak_heap_mb": heap::peak_mb(),
         "stage_wall_s": stages.map(|s| {
             s.into_iter()
                 .map(|(k, s)| (k.to_string(), json!(s)))

@@ -11,7 +11,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::PathBuf;
 
-use super::count;
+use super::{count, heap};
 use crate::materials::MaterialDb;
 use crate::models::align::{ReleaseScheme, RestMeasure};
 use crate::output::atomic;
@@ -174,23 +174,13 @@ fn run_on<R: Send>(pool: &rayon::ThreadPool, run: impl FnOnce() -> R + Send) -> 
 /// configuration. The first is silently a no-op elsewhere.
 fn reset_peak_rss() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
-    reset_peak_heap();
-}
-
-/// Starts the heap's peak count anew from the bytes live now (`heap::reset_peak`).
-fn reset_peak_heap() {
-    super::heap::reset_peak();
+    heap::reset_peak();
 }
 
 /// Peak resident set size of this process since the last reset (VmHWM), MB; NaN where /proc is
 /// unavailable.
 fn peak_rss_mb() -> f64 {
     status_field("/proc/self/status", "VmHWM:").map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
-/// Peak of the heap's live bytes since the last reset, MB (`heap::peak_mb`).
-fn peak_heap_mb() -> f64 {
-    super::heap::peak_mb()
 }
 
 /// CPU time this process has used so far (user + system, all threads), s; NaN where /proc
