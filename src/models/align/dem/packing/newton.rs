@@ -132,13 +132,14 @@ impl Stiffness {
     /// instead of three: on two threads each pass on the pool costs about 15 µs beyond its
     /// work, against about 105 µs for a product at 10⁴ (results/bench/README.md, "The
     /// release's passes on two threads").
-    fn conjugate(&self, residual: &[Vector3<f64>], (alpha, beta): (f64, f64), cg: Cg) -> f64 {
+    fn conjugate(&self, residual: &[Vector3<f32>], (alpha, beta): (f64, f64), cg: Cg) -> f64 {
         let Cg {
             step,
             direction,
             product,
             partial,
         } = cg;
+        let (alpha, beta, anchor) = (alpha as f32, beta as f32, self.anchor as f32);
         (self.chunks.par_iter())
             .zip(step.par_chunks_mut(CHUNK))
             .zip(direction.par_chunks_mut(CHUNK))
@@ -150,19 +151,19 @@ impl Stiffness {
                 let rows = (step.iter_mut().zip(direction).zip(product)).zip(&chunk.end);
                 for (k, (((p, d), q), &end)) in rows.enumerate() {
                     let ri = residual[c * CHUNK + k];
-                    let mut h = self.anchor * ri;
+                    let mut h = anchor * ri;
                     for s in &chunk.springs[start..end as usize] {
                         let delta = match s.partner {
                             FIXED => ri,
                             j => ri - residual[j as usize],
                         };
-                        let m = Vector3::from(s.scaled_normal).cast::<f64>();
+                        let m = Vector3::from(s.scaled_normal);
                         h += m.dot(&delta) * m;
                     }
                     *p += alpha * *d;
                     *d = ri + beta * *d;
                     *q = h + beta * *q;
-                    curvature += d.dot(q);
+                    curvature += d.cast::<f64>().dot(&q.cast::<f64>());
                     start = end as usize;
                 }
                 curvature
@@ -174,21 +175,24 @@ impl Stiffness {
 
 /// The per-particle vectors of a linear conjugate-gradient solve besides the residual: the
 /// Newton step p, the search direction d and its product q = H d; and the chunks' partial
-/// sums of d·q (kept between iterations: no allocation per product).
+/// sums of d·q (kept between iterations: no allocation per product). The vectors, like the
+/// residual, are single precision: a solve streams them once or twice per iteration and, at
+/// large N, waits on memory; it only steers the Newton step, and its sums are double
+/// (results/bench/README.md, "The release's solve in single precision").
 struct Cg<'a> {
-    step: &'a mut [Vector3<f64>],
-    direction: &'a mut [Vector3<f64>],
-    product: &'a mut [Vector3<f64>],
+    step: &'a mut [Vector3<f32>],
+    direction: &'a mut [Vector3<f32>],
+    product: &'a mut [Vector3<f32>],
     partial: &'a mut Vec<f64>,
 }
 
 /// Newton's method with linear conjugate gradients inside, on one backward-Euler step.
 pub(super) struct Newton {
     stiffness: Stiffness,
-    residual: Vec<Vector3<f64>>,
-    step: Vec<Vector3<f64>>,
-    direction: Vec<Vector3<f64>>,
-    product: Vec<Vector3<f64>>,
+    residual: Vec<Vector3<f32>>,
+    step: Vec<Vector3<f32>>,
+    direction: Vec<Vector3<f32>>,
+    product: Vec<Vector3<f32>>,
     partial: Vec<f64>,
     local: Corrections,
 }
@@ -237,10 +241,11 @@ impl Newton {
             parts.solve_s += solving.elapsed().as_secs_f64();
             // never moving a particle further than MAX_MOVE (the whole step scaled)
             let reach = (self.step.par_iter())
-                .map(|p| p.norm())
+                .map(|p| f64::from(p.norm()))
                 .reduce(|| 0.0, f64::max);
             let scale = (MAX_MOVE / reach).min(1.0);
-            (position.par_iter_mut().zip(&self.step)).for_each(|(x, p)| *x += scale * p);
+            (position.par_iter_mut().zip(&self.step))
+                .for_each(|(x, p)| *x += scale * p.cast::<f64>());
             let (sources, problem) = ((loads, container), (loads, container, anchor));
             max_force = anchor.net_forces(sources, position, (list, force), work);
             if max_force >= target && self.correct(position, problem, (list, force), target, work) {
@@ -275,8 +280,8 @@ impl Newton {
     /// Returns the iterations.
     fn solve_linear(&mut self, force: &[Load], target: f64) -> usize {
         let ([mut rr], _) = ordered_update_in(CHUNK, &mut self.residual, |i, r| {
-            *r = force[i].0;
-            ([r.norm_squared()], 0.0)
+            *r = force[i].0.cast::<f32>();
+            ([r.cast::<f64>().norm_squared()], 0.0)
         });
         self.step.par_iter_mut().for_each(|p| *p = Vector3::zeros());
         let (mut alpha, mut beta) = (0.0, 0.0);
@@ -297,8 +302,8 @@ impl Newton {
             alpha = rr / curvature;
             let q = &self.product;
             let ([next], largest) = ordered_update_in(CHUNK, &mut self.residual, |i, r| {
-                *r -= alpha * q[i];
-                let r2 = r.norm_squared();
+                *r -= (alpha as f32) * q[i];
+                let r2 = r.cast::<f64>().norm_squared();
                 ([r2], r2)
             });
             // the largest |r| from the largest |r|²: one root, not one per particle (the same
@@ -309,7 +314,7 @@ impl Newton {
             beta = next / rr;
             rr = next;
         }
-        (self.step.par_iter_mut().zip(&self.direction)).for_each(|(p, d)| *p += alpha * d);
+        (self.step.par_iter_mut().zip(&self.direction)).for_each(|(p, d)| *p += (alpha as f32) * d);
         iterations
     }
 }
@@ -358,8 +363,10 @@ mod tests {
             product: &mut product,
             partial: &mut Vec::new(),
         };
-        let curvature = (newton.stiffness).conjugate(&d, (0.0, 0.0), cg);
-        assert_eq!(direction, d);
+        let single: Vec<Vector3<f32>> = d.iter().map(|d| d.cast()).collect();
+        let curvature = (newton.stiffness).conjugate(&single, (0.0, 0.0), cg);
+        assert_eq!(direction, single);
+        let product: Vec<Vector3<f64>> = product.iter().map(|p| p.cast()).collect();
         let eps = 1e-7;
         let moved: Vec<_> = x.iter().zip(&d).map(|(x, d)| x + eps * d).collect();
         let then = |i, f: &mut Load| anchor.pull(i, &moved, f);
@@ -395,7 +402,9 @@ mod tests {
             );
         }
         assert!(geometric_terms > n, "{geometric_terms}");
-        let direct: f64 = d.iter().zip(&product).map(|(d, p)| d.dot(p)).sum();
+        let direct: f64 = (single.iter().zip(&product))
+            .map(|(d, p)| d.cast().dot(p))
+            .sum();
         assert!(curvature > 0.0 && (curvature - direct).abs() < 1e-9 * direct);
     }
 }
