@@ -16,13 +16,13 @@
 set -euo pipefail
 shopt -s inherit_errexit   # a failed run inside $(…) stops the script too
 
-bin=${1:-target/release/magopt}
+# shellcheck source=bench/runs.sh
+source "$(dirname "$0")/runs.sh"
+magopt_bin "${1:-}"
 repeats=${2:-2}
-[ -x "$bin" ] || { echo "no magopt binary at $bin (cargo build --release first)" >&2; exit 1; }
 
 workloads=(
-    "bed N=1e4, 3000 steps|bed --json --particles 10000 --max-steps 3000"
-    "align N=1e4|align --json --particles 10000"
+    "${n1e4_workloads[@]}"
     "blast N=2000 interacting, 0.1 s|blast --json --interacting --duration 0.1s"
 )
 

@@ -14,13 +14,13 @@
 set -euo pipefail
 shopt -s inherit_errexit
 
-bin=${1:-target/release/magopt}
+# shellcheck source=bench/runs.sh
+source "$(dirname "$0")/runs.sh"
+magopt_bin "${1:-}"
 threads=${2:-1 2 4 8 16}
-[ -x "$bin" ] || { echo "no magopt binary at $bin (cargo build --release first)" >&2; exit 1; }
 
 workloads=(
-    "bed N=1e4, 3000 steps|bed --json --particles 10000 --max-steps 3000"
-    "align N=1e4|align --json --particles 10000"
+    "${n1e4_workloads[@]}"
     # the source's cloud (1 m, 10 kJ, about 2000 particles) scaled to 1e4 at its packing
     # fraction and energy per particle, as `magopt bench blast --scale-cloud` does
     "blast N=1e4 scaled cloud, 0.01 s|blast --json --interacting --particles 10000 --cloud-radius 1.70998m --energy 50kJ --duration 0.01s"
