@@ -152,8 +152,12 @@ pub struct Numerics {
     /// in memory. Radii, centres and orientations are drawn independently, so the renumbering
     /// leaves the ensemble of packings the same; a run's bits change (summation order). A
     /// settling step 1.0–1.3× and an alignment step 1.1–1.5× faster at N = 1e4, 1.25× and
-    /// 1.18× at 3e4 on 2 threads (results/bench/README.md, "Particle order"). 10 000: every
-    /// shipped result (N ≤ 2000) keeps its packings.
+    /// 1.18× at 3e4 on 2 threads (results/bench/README.md, "Particle order"). From the same
+    /// size on, the alignment stage numbers the settled packing in its Gauss–Seidel order
+    /// (colour by colour, cell by cell), so that each sweep reads the particles' own data in
+    /// memory order; its frames name the particles by their index in the packing
+    /// (results/bench/README.md, "The alignment stage in sweep order"). 10 000: every shipped
+    /// result (N ≤ 2000) keeps its packings and its bits.
     pub cell_order_from: usize,
     /// FIRE's time-step cap in the settling stage, in units of 1/√k_max (k_max: the largest
     /// summed contact stiffness of a particle; stable below √2), from `large_bed_from`

@@ -188,6 +188,17 @@ impl Packing {
         Ok((packing, stages, work))
     }
 
+    /// The same particles numbered in `order` (a permutation of their indices): particle k
+    /// is this one's `order[k]`.
+    pub fn renumbered(&self, order: &[usize]) -> Self {
+        Self {
+            radius: permuted(&self.radius, order),
+            position: permuted(&self.position, order),
+            orientation: permuted(&self.orientation, order),
+            ..*self
+        }
+    }
+
     /// Solid volume over the volume of the die up to the highest sphere top.
     pub fn packing_fraction(&self) -> f64 {
         packing_fraction(&self.radius, &self.position, &self.container)
@@ -752,7 +763,7 @@ fn random_start(params: &PackingParams, seed: u64) -> Packing {
         .max(2.0 * radius.iter().cloned().fold(0.0, f64::max));
     let position = sample_positions(&radius, side, seed);
     let orientation = sample_orientations(radius.len(), seed);
-    let mut start = Packing {
+    let start = Packing {
         radius,
         position,
         orientation,
@@ -765,10 +776,7 @@ fn random_start(params: &PackingParams, seed: u64) -> Packing {
     };
     if start.radius.len() >= params.numerics.cell_order_from {
         // cells one mean diameter (2 R_av) wide
-        let order = cell_order(&start.position, 2.0);
-        start.radius = permuted(&start.radius, &order);
-        start.position = permuted(&start.position, &order);
-        start.orientation = permuted(&start.orientation, &order);
+        return start.renumbered(&cell_order(&start.position, 2.0));
     }
     start
 }

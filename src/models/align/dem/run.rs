@@ -3,6 +3,8 @@
 //! integrator advances the state and the record observes it. The physics lives in the modules
 //! called here.
 
+use std::borrow::Cow;
+
 use nalgebra::Vector3;
 
 use super::contacts::{ContactLaw, ContactSet, Container};
@@ -19,6 +21,7 @@ use super::velocity::{self, Lid, Schedule, SolverControl, Stage};
 use crate::models::align::params::{AlignParams, FrictionScheme, PressureMode};
 use crate::models::align::AlignOutcome;
 use crate::neighbor::NeighborList;
+use crate::output::particles::ParticleFrame;
 use crate::output::snapshots::Recorder;
 
 /// Most alignment steps a run may take (a typical run takes tens): a run that would need more
@@ -36,7 +39,11 @@ const MAX_SPLITS: u32 = 12;
 /// One alignment run: its fixed data, evolving state and the work buffers of its stages.
 pub struct Run<'a> {
     params: &'a AlignParams,
-    packing: &'a Packing,
+    /// The settled packing, renumbered in sweep order from `cell_order_from` particles on.
+    packing: Cow<'a, Packing>,
+    /// Each particle's index in the packing as given, where the run renumbered it: frames
+    /// name the particles by it.
+    packing_index: Option<Vec<usize>>,
     state: State,
     heun: Heun,
     record: Record,
@@ -64,11 +71,12 @@ pub struct Run<'a> {
 
 impl<'a> Run<'a> {
     /// A run from the settled packing at rest.
-    pub fn new(params: &'a AlignParams, packing: &'a Packing) -> Self {
+    pub fn new(params: &'a AlignParams, given: &'a Packing) -> Self {
+        let (packing, packing_index) = in_sweep_order(params, given);
         // v_ε and the solver tolerance are fractions of the fastest possible surface speed.
-        let (omega_max, r_max) = fastest_rotation(params, packing);
+        let (omega_max, r_max) = fastest_rotation(params, &packing);
         let surface_speed = omega_max * r_max;
-        let mut state = State::at_rest(packing);
+        let mut state = State::at_rest(&packing);
         let lid = (params.pressure_mode == PressureMode::Punch).then(|| {
             state.lid = Some(LidState {
                 height: bed_top(&state.position, &packing.radius),
@@ -81,8 +89,9 @@ impl<'a> Run<'a> {
                 load: params.pressure / scales.stress() * c.lx * c.ly,
             }
         });
-        let dt = time_step(params, packing);
+        let dt = time_step(params, &packing);
         let n = packing.radius.len();
+        let anisotropy = Anisotropy::new(params, &packing);
         let tolerance = params.numerics.solver_tolerance * surface_speed;
         let slip_scale = match params.numerics.friction_scheme {
             FrictionScheme::CoulombLimit => tolerance,
@@ -91,6 +100,7 @@ impl<'a> Run<'a> {
         Self {
             params,
             packing,
+            packing_index,
             record: Record::new(&state.orientation, dt, params.scales().time),
             state,
             heun: Heun::new(dt),
@@ -99,7 +109,7 @@ impl<'a> Run<'a> {
             contacts: ContactSet::default(),
             law: contact_law(params),
             loads: Loads::none(n),
-            anisotropy: Anisotropy::new(params, packing),
+            anisotropy,
             force: vec![Vector3::zeros(); n],
             torque: vec![Vector3::zeros(); n],
             slip_scale,
@@ -158,9 +168,13 @@ impl<'a> Run<'a> {
             _ => (self.loads.applied, None),
         };
         let position = &self.state.position;
-        let mut outcome =
-            self.record
-                .outcome(self.params, self.packing, position, &self.contacts, applied);
+        let mut outcome = self.record.outcome(
+            self.params,
+            &self.packing,
+            position,
+            &self.contacts,
+            applied,
+        );
         outcome.lid_travel_m = travel.map(|t| t * self.params.scales().length);
         outcome
     }
@@ -219,7 +233,7 @@ impl<'a> Run<'a> {
     fn offer_frame(&self, recorder: &mut Recorder, label: Option<&str>) {
         let step = self.record.steps() as u64;
         let time = step as f64 * self.heun.dt * self.params.scales().time;
-        let take = || frame(self.params, self.packing, &self.state, &self.contacts, time);
+        let take = || self.frame_at(time);
         match label {
             Some(label) => recorder.moment(label, step, &take()),
             None if recorder.due(step, time) => recorder.frame(step, &take()),
@@ -227,9 +241,25 @@ impl<'a> Run<'a> {
         }
     }
 
+    /// The current state as a particle frame at `time` (s), its particles named by their
+    /// index in the packing as given.
+    fn frame_at(&self, time: f64) -> ParticleFrame {
+        let mut taken = frame(
+            self.params,
+            &self.packing,
+            &self.state,
+            &self.contacts,
+            time,
+        );
+        if let Some(index) = &self.packing_index {
+            taken.id = index.iter().map(|&i| i as u64 + 1).collect();
+        }
+        taken
+    }
+
     /// The contacts of the current state (the lid, if any, as the die's ceiling).
     fn rebuild_contacts(&mut self) {
-        let (position, packing) = (&self.state.position, self.packing);
+        let (position, packing) = (&self.state.position, &*self.packing);
         let container = Container {
             top: self.state.lid.map(|l| l.height),
             ..packing.container
@@ -309,11 +339,36 @@ impl<'a> Run<'a> {
         let (position, radius) = (&self.state.position, &self.packing.radius);
         if self.list.update(position, radius) {
             self.loads.update(self.params, position, radius);
-            let r_max = radius.iter().cloned().fold(0.0, f64::max);
             let parallel_from = self.params.numerics.parallel_from;
-            self.schedule = Schedule::new(position, 2.0 * r_max + SKIN, parallel_from);
+            self.schedule = Schedule::new(position, schedule_cell(radius), parallel_from);
         }
     }
+}
+
+/// The side of the Gauss–Seidel schedule's cells: the neighbour list's reach.
+fn schedule_cell(radius: &[f64]) -> f64 {
+    2.0 * radius.iter().cloned().fold(0.0, f64::max) + SKIN
+}
+
+/// The packing as the run numbers it: from `cell_order_from` particles on, renumbered in the
+/// order the schedule at its positions visits the particles (colour by colour, cell by cell),
+/// so that a sweep reads each particle's own data (contacts, loads) in memory order; with the
+/// index each particle had in `given`. The particles hardly move while they align, so the
+/// later schedules keep that order. A run's bits change (its sums run in another order), its
+/// answers only by the velocity solve's tolerance (results/bench/README.md, "The alignment
+/// stage in sweep order").
+fn in_sweep_order<'a>(
+    params: &AlignParams,
+    given: &'a Packing,
+) -> (Cow<'a, Packing>, Option<Vec<usize>>) {
+    if given.radius.len() < params.numerics.cell_order_from {
+        return (Cow::Borrowed(given), None);
+    }
+    let cell = schedule_cell(&given.radius);
+    let order: Vec<usize> = Schedule::new(&given.position, cell, usize::MAX)
+        .order()
+        .collect();
+    (Cow::Owned(given.renumbered(&order)), Some(order))
 }
 
 /// Contacts between particles and with the die walls, both of the particle material; pairs
@@ -333,4 +388,55 @@ fn contact_law(params: &AlignParams) -> ContactLaw {
 /// the list skin (beyond it pairs are not listed).
 fn contact_margin(largest_move: f64) -> f64 {
     (2.0 * largest_move).clamp(MIN_CONTACT_MARGIN, SKIN)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::MaterialDb;
+
+    fn params(cell_order_from: usize) -> AlignParams {
+        let material = MaterialDb::builtin().get("srfe12o19").unwrap().clone();
+        let mut params = AlignParams::paper_defaults(material, 40.0);
+        params.particles = 200;
+        params.numerics.cell_order_from = cell_order_from;
+        params
+    }
+
+    #[test]
+    fn a_run_in_sweep_order_sweeps_its_particles_in_memory_order() {
+        let given = Packing::generate(&params(usize::MAX).packing(), 2).unwrap();
+        let swept = params(0);
+        let run = Run::new(&swept, &given);
+        let index = run.packing_index.as_ref().expect("renumbered");
+        let cell = schedule_cell(&run.packing.radius);
+        let order: Vec<usize> = Schedule::new(&run.packing.position, cell, usize::MAX)
+            .order()
+            .collect();
+        assert_eq!(order, (0..given.radius.len()).collect::<Vec<_>>());
+        assert_ne!(index, &order, "the start is not already in sweep order");
+        for (k, &i) in index.iter().enumerate() {
+            assert_eq!(run.packing.position[k], given.position[i]);
+            assert_eq!(run.packing.radius[k], given.radius[i]);
+            assert_eq!(run.packing.orientation[k], given.orientation[i]);
+        }
+    }
+
+    #[test]
+    fn frames_name_the_particles_by_their_index_in_the_given_packing() {
+        let given = Packing::generate(&params(usize::MAX).packing(), 2).unwrap();
+        let frame_of = |cell_order_from| {
+            let params = params(cell_order_from);
+            let mut run = Run::new(&params, &given);
+            run.refresh_neighbours();
+            run.rebuild_contacts();
+            let f = run.frame_at(0.0);
+            let mut by_id: Vec<_> = (0..given.radius.len())
+                .map(|k| (f.id[k], f.position[k], f.radius[k]))
+                .collect();
+            by_id.sort_by_key(|row| row.0);
+            by_id
+        };
+        assert_eq!(frame_of(0), frame_of(usize::MAX));
+    }
 }
