@@ -201,7 +201,7 @@ static PARAMETERS: &[AlignParam] = &[
         ParamSpec::new(
             "particles",
             K::Count,
-            "Number of particles N (at most 1e7: about 0.6-0.8 kB of memory each)"
+            "Number of particles N (at most 1e7: about 0.6-0.75 kB of memory each)"
         )
         .within(Bounds::closed(1.0, 1e7)),
         params.particles

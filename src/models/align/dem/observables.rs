@@ -5,8 +5,8 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
-use super::contacts::ContactSet;
-use super::packing::{bed_top, packing_fraction, Packing};
+use super::contacts::{ContactSet, Container};
+use super::packing::{bed_top, packing_fraction};
 use super::velocity::{Motion, SolveStats, Stage};
 use crate::models::align::params::AlignParams;
 use crate::models::align::{AlignOutcome, Status};
@@ -154,11 +154,12 @@ impl Record {
         self.failure = Some(reason);
     }
 
-    /// The outcome in physical units, from the record and the final state.
+    /// The outcome in physical units, from the record, the particles' radii, the die and the
+    /// final state.
     pub fn outcome(
         mut self,
         params: &AlignParams,
-        packing: &Packing,
+        (radius, c): (&[f64], &Container),
         position: &[Vector3<f64>],
         contacts: &ContactSet,
         applied_force: f64,
@@ -170,9 +171,7 @@ impl Record {
             None if tau.is_some() => Status::Reached,
             None => Status::NotReached,
         };
-        let radius = &packing.radius;
         let top = bed_top(position, radius);
-        let c = &packing.container;
         AlignOutcome {
             status,
             alignment_time_s: tau,

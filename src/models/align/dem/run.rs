@@ -39,8 +39,12 @@ const MAX_SPLITS: u32 = 12;
 /// One alignment run: its fixed data, evolving state and the work buffers of its stages.
 pub struct Run<'a> {
     params: &'a AlignParams,
-    /// The settled packing, renumbered in sweep order from `cell_order_from` particles on.
-    packing: Cow<'a, Packing>,
+    /// The particles' radii (R_av), in sweep order from `cell_order_from` particles on.
+    radius: Cow<'a, [f64]>,
+    /// The die.
+    container: Container,
+    /// The bed's top at the start (R_av).
+    start_top: f64,
     /// Each particle's index in the packing as given, where the run renumbered it: frames
     /// name the particles by it.
     packing_index: Option<Vec<usize>>,
@@ -72,14 +76,16 @@ pub struct Run<'a> {
 impl<'a> Run<'a> {
     /// A run from the settled packing at rest.
     pub fn new(params: &'a AlignParams, given: &'a Packing) -> Self {
-        let (packing, packing_index) = in_sweep_order(params, given);
+        let (renumbered, packing_index) = in_sweep_order(params, given);
+        let packing = renumbered.as_ref().unwrap_or(given);
         // v_ε and the solver tolerance are fractions of the fastest possible surface speed.
-        let (omega_max, r_max) = fastest_rotation(params, &packing);
+        let (omega_max, r_max) = fastest_rotation(params, packing);
         let surface_speed = omega_max * r_max;
-        let mut state = State::at_rest(&packing);
+        let mut state = State::at_rest(packing);
+        let start_top = bed_top(&state.position, &packing.radius);
         let lid = (params.pressure_mode == PressureMode::Punch).then(|| {
             state.lid = Some(LidState {
-                height: bed_top(&state.position, &packing.radius),
+                height: start_top,
                 velocity: 0.0,
             });
             let scales = params.scales();
@@ -89,9 +95,15 @@ impl<'a> Run<'a> {
                 load: params.pressure / scales.stress() * c.lx * c.ly,
             }
         });
-        let dt = time_step(params, &packing);
+        let dt = time_step(params, packing);
         let n = packing.radius.len();
-        let anisotropy = Anisotropy::new(params, &packing);
+        let anisotropy = Anisotropy::new(params, packing);
+        let container = packing.container;
+        // the renumbered copy's centres and orientations now live in `state`: only its radii stay
+        let radius = match renumbered {
+            Some(copy) => Cow::Owned(copy.radius),
+            None => Cow::Borrowed(&given.radius[..]),
+        };
         let tolerance = params.numerics.solver_tolerance * surface_speed;
         let slip_scale = match params.numerics.friction_scheme {
             FrictionScheme::CoulombLimit => tolerance,
@@ -99,7 +111,9 @@ impl<'a> Run<'a> {
         };
         Self {
             params,
-            packing,
+            radius,
+            container,
+            start_top,
             packing_index,
             record: Record::new(&state.orientation, dt, params.scales().time),
             state,
@@ -161,16 +175,13 @@ impl<'a> Run<'a> {
             self.offer_frame(r, Some("end"));
         }
         let (applied, travel) = match (self.lid, self.state.lid) {
-            (Some(_), Some(lid)) => {
-                let start = bed_top(&self.packing.position, &self.packing.radius);
-                (self.lid_force, Some(start - lid.height))
-            }
+            (Some(_), Some(lid)) => (self.lid_force, Some(self.start_top - lid.height)),
             _ => (self.loads.applied, None),
         };
         let position = &self.state.position;
         let mut outcome = self.record.outcome(
             self.params,
-            &self.packing,
+            (&self.radius, &self.container),
             position,
             &self.contacts,
             applied,
@@ -246,7 +257,7 @@ impl<'a> Run<'a> {
     fn frame_at(&self, time: f64) -> ParticleFrame {
         let mut taken = frame(
             self.params,
-            &self.packing,
+            (&self.radius, &self.container),
             &self.state,
             &self.contacts,
             time,
@@ -259,20 +270,20 @@ impl<'a> Run<'a> {
 
     /// The contacts of the current state (the lid, if any, as the die's ceiling).
     fn rebuild_contacts(&mut self) {
-        let (position, packing) = (&self.state.position, &*self.packing);
         let container = Container {
             top: self.state.lid.map(|l| l.height),
-            ..packing.container
+            ..self.container
         };
+        let (position, radius) = (&self.state.position, &self.radius);
         self.contacts
-            .rebuild(position, &packing.radius, &self.list, &container, &self.law);
+            .rebuild(position, radius, &self.list, &container, &self.law);
     }
 
     /// Solves the velocity problem at the current state, warm-started from the last solve.
     fn solve_stage(&mut self) -> Result<(), String> {
         self.refresh_neighbours();
         self.rebuild_contacts();
-        let radius = &self.packing.radius;
+        let radius = &self.radius;
         check_overlaps(&self.contacts)?;
         let state = &mut self.state;
         self.anisotropy.apply(
@@ -336,7 +347,7 @@ impl<'a> Run<'a> {
     /// Gauss–Seidel order and the loads (which particles carry the pressure changes only as
     /// the bed rearranges).
     fn refresh_neighbours(&mut self) {
-        let (position, radius) = (&self.state.position, &self.packing.radius);
+        let (position, radius) = (&self.state.position, &self.radius);
         if self.list.update(position, radius) {
             self.loads.update(self.params, position, radius);
             let parallel_from = self.params.numerics.parallel_from;
@@ -350,25 +361,22 @@ fn schedule_cell(radius: &[f64]) -> f64 {
     2.0 * radius.iter().cloned().fold(0.0, f64::max) + SKIN
 }
 
-/// The packing as the run numbers it: from `cell_order_from` particles on, renumbered in the
-/// order the schedule at its positions visits the particles (colour by colour, cell by cell),
-/// so that a sweep reads each particle's own data (contacts, loads) in memory order; with the
-/// index each particle had in `given`. The particles hardly move while they align, so the
+/// From `cell_order_from` particles on, the packing renumbered in the order the schedule at
+/// its positions visits the particles (colour by colour, cell by cell), so that a sweep reads
+/// each particle's own data (contacts, loads) in memory order; with the index each particle
+/// had in `given` (None below that size: the run keeps the given numbering). The particles hardly move while they align, so the
 /// later schedules keep that order. A run's bits change (its sums run in another order), its
 /// answers only by the velocity solve's tolerance (results/bench/README.md, "The alignment
 /// stage in sweep order").
-fn in_sweep_order<'a>(
-    params: &AlignParams,
-    given: &'a Packing,
-) -> (Cow<'a, Packing>, Option<Vec<usize>>) {
+fn in_sweep_order(params: &AlignParams, given: &Packing) -> (Option<Packing>, Option<Vec<usize>>) {
     if given.radius.len() < params.numerics.cell_order_from {
-        return (Cow::Borrowed(given), None);
+        return (None, None);
     }
     let cell = schedule_cell(&given.radius);
     let order: Vec<usize> = Schedule::new(&given.position, cell, usize::MAX)
         .order()
         .collect();
-    (Cow::Owned(given.renumbered(&order)), Some(order))
+    (Some(given.renumbered(&order)), Some(order))
 }
 
 /// Contacts between particles and with the die walls, both of the particle material; pairs
@@ -409,16 +417,16 @@ mod tests {
         let swept = params(0);
         let run = Run::new(&swept, &given);
         let index = run.packing_index.as_ref().expect("renumbered");
-        let cell = schedule_cell(&run.packing.radius);
-        let order: Vec<usize> = Schedule::new(&run.packing.position, cell, usize::MAX)
+        let cell = schedule_cell(&run.radius);
+        let order: Vec<usize> = Schedule::new(&run.state.position, cell, usize::MAX)
             .order()
             .collect();
         assert_eq!(order, (0..given.radius.len()).collect::<Vec<_>>());
         assert_ne!(index, &order, "the start is not already in sweep order");
         for (k, &i) in index.iter().enumerate() {
-            assert_eq!(run.packing.position[k], given.position[i]);
-            assert_eq!(run.packing.radius[k], given.radius[i]);
-            assert_eq!(run.packing.orientation[k], given.orientation[i]);
+            assert_eq!(run.state.position[k], given.position[i]);
+            assert_eq!(run.radius[k], given.radius[i]);
+            assert_eq!(run.state.orientation[k], given.orientation[i]);
         }
     }
 

@@ -15,27 +15,29 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::contacts::ContactSet;
-use super::packing::{bed_top, Packing};
+use super::contacts::{ContactSet, Container};
+use super::packing::bed_top;
 use super::state::State;
 use crate::models::align::params::AlignParams;
 use crate::models::align::stoner_wohlfarth::equilibrium;
 use crate::output::particles::{Cell, ParticleFrame, Property};
 
-/// The run's state at `time` (s) as a particle frame; every particle is type 1.
+/// The run's state at `time` (s) as a particle frame of the particles with `radius` in
+/// `container`; every particle is type 1.
 pub fn frame(
     params: &AlignParams,
-    packing: &Packing,
+    (radius, container): (&[f64], &Container),
     state: &State,
     contacts: &ContactSet,
     time: f64,
 ) -> ParticleFrame {
     let scales = params.scales();
     let (length, speed) = (scales.length, scales.length / scales.time);
-    let n = packing.radius.len();
-    let mut frame = ParticleFrame::new(time, cell(packing, state, length), vec![1; n]);
+    let n = radius.len();
+    let die = cell((radius, container), state, length);
+    let mut frame = ParticleFrame::new(time, die, vec![1; n]);
     frame.position = state.position.iter().map(|p| p * length).collect();
-    frame.radius = packing.radius.iter().map(|r| r * length).collect();
+    frame.radius = radius.iter().map(|r| r * length).collect();
     frame.velocity = state.motion.iter().map(|m| m.v * speed).collect();
     let volume: Vec<f64> = frame
         .radius
@@ -83,13 +85,12 @@ fn moment_direction(axis: &Vector3<f64>, h: f64) -> Vector3<f64> {
 }
 
 /// The die, up to its lid or to the highest particle surface, m.
-fn cell(packing: &Packing, state: &State, length: f64) -> Cell {
-    let c = &packing.container;
+fn cell((radius, c): (&[f64], &Container), state: &State, length: f64) -> Cell {
     let top = state
         .lid
         .map(|l| l.height)
         .or(c.top)
-        .unwrap_or_else(|| bed_top(&state.position, &packing.radius));
+        .unwrap_or_else(|| bed_top(&state.position, radius));
     Cell::aligned(Vector3::zeros(), Vector3::new(c.lx, c.ly, top) * length)
 }
 
