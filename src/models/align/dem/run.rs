@@ -76,7 +76,7 @@ pub struct Run<'a> {
 impl<'a> Run<'a> {
     /// A run from the settled packing at rest.
     pub fn new(params: &'a AlignParams, given: &'a Packing) -> Self {
-        let (renumbered, packing_index) = in_sweep_order(params, given);
+        let (renumbered, packing_index) = in_sweep_order(params, given).unzip();
         let packing = renumbered.as_ref().unwrap_or(given);
         // v_ε and the solver tolerance are fractions of the fastest possible surface speed.
         let (omega_max, r_max) = fastest_rotation(params, packing);
@@ -363,20 +363,20 @@ fn schedule_cell(radius: &[f64]) -> f64 {
 
 /// From `cell_order_from` particles on, the packing renumbered in the order the schedule at
 /// its positions visits the particles (colour by colour, cell by cell), so that a sweep reads
-/// each particle's own data (contacts, loads) in memory order; with the index each particle
-/// had in `given` (None below that size: the run keeps the given numbering). The particles hardly move while they align, so the
-/// later schedules keep that order. A run's bits change (its sums run in another order), its
-/// answers only by the velocity solve's tolerance (results/bench/README.md, "The alignment
-/// stage in sweep order").
-fn in_sweep_order(params: &AlignParams, given: &Packing) -> (Option<Packing>, Option<Vec<usize>>) {
+/// each particle's own data (contacts, loads) in memory order, with the index each particle
+/// had in `given`; None below that size (the run keeps the given numbering). The particles
+/// hardly move while they align, so the later schedules keep that order. A run's bits change
+/// (its sums run in another order), its answers only by the velocity solve's tolerance
+/// (results/bench/README.md, "The alignment stage in sweep order").
+fn in_sweep_order(params: &AlignParams, given: &Packing) -> Option<(Packing, Vec<usize>)> {
     if given.radius.len() < params.numerics.cell_order_from {
-        return (None, None);
+        return None;
     }
     let cell = schedule_cell(&given.radius);
     let order: Vec<usize> = Schedule::new(&given.position, cell, usize::MAX)
         .order()
         .collect();
-    (Some(given.renumbered(&order)), Some(order))
+    Some((given.renumbered(&order), order))
 }
 
 /// Contacts between particles and with the die walls, both of the particle material; pairs
