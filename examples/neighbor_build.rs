@@ -1,8 +1,10 @@
 //! Times the neighbour-list build (cell grid and Verlet list, `magopt::neighbor`) on N spheres
 //! of radius 0.9–1.1 with centres on a cubic lattice of spacing 1.75, each jittered by up to
 //! 0.3 per axis (~7 partners within R_i + R_j + skin, about a settled bed's count): the build
-//! the packing stages of `align` repeat every ~25 FIRE steps.
-//! `RAYON_NUM_THREADS=1 cargo run --release --example neighbor_build -- [particles] [builds]`
+//! the packing stages of `align` repeat every ~25 FIRE steps. With `lognormal`, the radii are
+//! drawn as `align` draws them, exp(σ z − σ²/2) with σ = 0.1 (the largest of 10⁵ near 1.5,
+//! which sets the grid's cells).
+//! `RAYON_NUM_THREADS=1 cargo run --release --example neighbor_build -- [particles] [builds] [lognormal]`
 
 use magopt::neighbor::NeighborList;
 use nalgebra::Vector3;
@@ -26,7 +28,17 @@ fn main() {
                 + 0.3 * Vector3::from([(); 3].map(|_| rng.random::<f64>()))
         })
         .collect();
-    let radius: Vec<f64> = (0..n).map(|_| 0.9 + 0.2 * rng.random::<f64>()).collect();
+    let lognormal = std::env::args().any(|a| a == "lognormal");
+    let radius: Vec<f64> = (0..n)
+        .map(|_| {
+            if lognormal {
+                let z: f64 = rng.sample(rand_distr::StandardNormal);
+                (0.1 * z - 0.005_f64).exp()
+            } else {
+                0.9 + 0.2 * rng.random::<f64>()
+            }
+        })
+        .collect();
     let mut list = NeighborList::<3>::new(0.3);
     let started = std::time::Instant::now();
     for _ in 0..builds {

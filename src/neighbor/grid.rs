@@ -32,6 +32,8 @@ pub(super) struct CellGrid<const D: usize> {
     index: Vec<u32>,
     coords: [Vec<f64>; D],
     radii: Vec<f64>,
+    /// The largest radius: with a query's radius and skin, how far its partners can lie.
+    largest_radius: f64,
 }
 
 /// A query: the point, its index (never its own neighbour), its radius and the skin.
@@ -69,6 +71,7 @@ impl<const D: usize> CellGrid<D> {
             index: vec![u32::MAX; padded],
             coords: std::array::from_fn(|_| vec![f64::NAN; padded]),
             radii: vec![f64::NAN; padded],
+            largest_radius: radii.iter().copied().fold(0.0, f64::max),
         };
         let cell_of = |p| grid.flat(grid.coords(p));
         let cells: Vec<usize> = if positions.len() >= PARALLEL_FROM {
@@ -96,12 +99,15 @@ impl<const D: usize> CellGrid<D> {
     }
 
     fn coords(&self, p: &SVector<f64, D>) -> [usize; D] {
-        std::array::from_fn(|a| {
-            // truncation is the floor of the clamped (non-negative) offset, without the libm
-            // call `floor` is on x86-64's baseline (no SSE4.1 rounding instruction)
-            let c = ((p[a] - self.origin[a]) / self.cell).max(0.0);
-            (c as usize).min(self.dims[a] - 1)
-        })
+        std::array::from_fn(|a| self.cell_along(a, p[a]))
+    }
+
+    /// The cell coordinate along axis `a` of `x` (clamped to the grid).
+    fn cell_along(&self, a: usize, x: f64) -> usize {
+        // truncation is the floor of the clamped (non-negative) offset, without the libm
+        // call `floor` is on x86-64's baseline (no SSE4.1 rounding instruction)
+        let c = ((x - self.origin[a]) / self.cell).max(0.0);
+        (c as usize).min(self.dims[a] - 1)
     }
 
     /// Row-major cell index, axis 0 fastest.
@@ -109,8 +115,8 @@ impl<const D: usize> CellGrid<D> {
         (0..D).rev().fold(0, |acc, a| acc * self.dims[a] + c[a])
     }
 
-    /// Pushes onto `found` every point j ≠ `q.index` in the 3^D cells around `q.point` with
-    /// |x_j − x_q|² < (R_q + R_j + skin)², in cell order; `lanes` chooses the AVX form.
+    /// Pushes onto `found` every point j ≠ `q.index` with |x_j − x_q|² < (R_q + R_j + skin)²,
+    /// in cell order; `lanes` chooses the AVX form.
     pub(super) fn find_near(&self, q: &Query<D>, lanes: bool, found: &mut Vec<u32>) {
         #[cfg(target_arch = "x86_64")]
         if lanes {
@@ -119,16 +125,19 @@ impl<const D: usize> CellGrid<D> {
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = lanes; // no AVX form off x86-64
-        self.for_each_run(&q.point, |run| self.run_portable(run, q, found));
+        self.for_each_run(q, |run| self.run_portable(run, q, found));
     }
 
-    /// Calls `visit` with the members of the 3^D cells around the cell of `p`, a run of
+    /// Calls `visit` with the members of the cells that meet the box of half-width
+    /// R_q + R_max + skin around the query point (every partner lies inside it), a run of
     /// cells along axis 0 at a time (their members are contiguous).
     #[inline(always)]
-    fn for_each_run(&self, p: &SVector<f64, D>, mut visit: impl FnMut(Range<usize>)) {
-        let centre = self.coords(p);
-        let lo: [usize; D] = std::array::from_fn(|a| centre[a].saturating_sub(1));
-        let hi: [usize; D] = std::array::from_fn(|a| (centre[a] + 1).min(self.dims[a] - 1));
+    fn for_each_run(&self, q: &Query<D>, mut visit: impl FnMut(Range<usize>)) {
+        // the margin keeps the box a superset of the hits through the rounding of x ± half
+        let half = (q.radius + self.largest_radius + q.skin) * (1.0 + 1e-9);
+        let p = &q.point;
+        let lo: [usize; D] = std::array::from_fn(|a| self.cell_along(a, p[a] - half));
+        let hi: [usize; D] = std::array::from_fn(|a| self.cell_along(a, p[a] + half));
         let mut c = lo;
         loop {
             let first = self.flat(c);
@@ -175,7 +184,7 @@ impl<const D: usize> CellGrid<D> {
         let point: [__m256d; D] = std::array::from_fn(|a| _mm256_set1_pd(q.point[a]));
         let (radius, skin) = (_mm256_set1_pd(q.radius), _mm256_set1_pd(q.skin));
         let me = _mm_set1_epi32(q.index as i32);
-        self.for_each_run(&q.point, |run| {
+        self.for_each_run(q, |run| {
             // each step writes LANES slots and keeps its hits: room for the run and one step
             found.reserve(run.len() + LANES);
             let (mut len, out) = (found.len(), found.as_mut_ptr());
@@ -200,11 +209,14 @@ impl<const D: usize> CellGrid<D> {
                 let own = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(js, me))) as usize;
                 let valid = (1usize << (run.end - k).min(LANES)) - 1;
                 let mask = _mm256_movemask_pd(hit) as usize & valid & !own;
-                // branch-free: the hits' slots in order, then the length past them
-                for (t, &lane) in HIT_LANES[mask].iter().enumerate() {
-                    // SAFETY: len + t < len + LANES ≤ the capacity reserved above
-                    unsafe { out.add(len + t).write(self.index[k + lane as usize]) };
-                }
+                // branch-free: the hits' indices moved to the front in order and written as
+                // one vector (the slots past them are overwritten or cut off), then the length
+                // past them
+                // SAFETY: `HIT_LANES[mask]` holds four lane numbers
+                let order = unsafe { _mm_loadu_si128(HIT_LANES[mask].as_ptr().cast()) };
+                let hits = _mm_castps_si128(_mm_permutevar_ps(_mm_castsi128_ps(js), order));
+                // SAFETY: len + LANES ≤ the capacity reserved above
+                unsafe { _mm_storeu_si128(out.add(len).cast(), hits) };
                 len += mask.count_ones() as usize;
                 k += LANES;
             }
@@ -216,14 +228,14 @@ impl<const D: usize> CellGrid<D> {
 
 /// For each mask of four lanes, its set lanes in order (then zeros): the hits' slots.
 #[cfg(target_arch = "x86_64")]
-const HIT_LANES: [[u8; LANES]; 1 << LANES] = {
+const HIT_LANES: [[i32; LANES]; 1 << LANES] = {
     let mut table = [[0; LANES]; 1 << LANES];
     let mut mask = 0;
     while mask < 1 << LANES {
         let (mut lane, mut count) = (0, 0);
         while lane < LANES {
             if mask & (1 << lane) != 0 {
-                table[mask][count] = lane as u8;
+                table[mask][count] = lane as i32;
                 count += 1;
             }
             lane += 1;
@@ -250,6 +262,25 @@ mod tests {
     use nalgebra::Vector3;
     use rand::{RngExt, SeedableRng};
 
+    /// `n` points at random on the half-integer lattice of a cube of side `side` / 2 (pairs
+    /// exactly at reach occur).
+    fn half_lattice(seed: u64, n: usize, side: f64) -> Vec<Vector3<f64>> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        (0..n)
+            .map(|_| Vector3::from_fn(|_, _| (rng.random::<f64>() * side).round() * 0.5))
+            .collect()
+    }
+
+    /// Point i's query with skin `skin`.
+    fn query(positions: &[Vector3<f64>], radii: &[f64], i: usize, skin: f64) -> Query<3> {
+        Query {
+            point: positions[i],
+            index: i as u32,
+            radius: radii[i],
+            skin,
+        }
+    }
+
     /// Every point's search in both forms, on a bed with pairs exactly at reach, a NaN point
     /// and runs of every length modulo four.
     #[test]
@@ -257,21 +288,13 @@ mod tests {
         if !crate::numerics::has_avx() {
             return;
         }
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        let mut positions: Vec<Vector3<f64>> = (0..700)
-            .map(|_| Vector3::from_fn(|_, _| (rng.random::<f64>() * 12.0).round() * 0.5))
-            .collect();
+        let mut positions = half_lattice(5, 700, 12.0);
         positions[17] = Vector3::new(f64::NAN, 1.0, 2.0);
         let radii: Vec<f64> = (0..700).map(|k| 0.25 * (1 + k % 3) as f64).collect();
         let grid = CellGrid::new(&positions, &radii, 2.0 * 0.75 + 0.5);
         let mut hits = 0;
-        for (i, p) in positions.iter().enumerate() {
-            let q = Query {
-                point: *p,
-                index: i as u32,
-                radius: radii[i],
-                skin: 0.5,
-            };
+        for i in 0..positions.len() {
+            let q = query(&positions, &radii, i, 0.5);
             let (mut portable, mut avx) = (Vec::new(), Vec::new());
             grid.find_near(&q, false, &mut portable);
             grid.find_near(&q, true, &mut avx);
@@ -279,5 +302,39 @@ mod tests {
             hits += avx.len();
         }
         assert!(hits > 700, "{hits} hits");
+    }
+
+    /// A point's search box is fitted to its own radius and the largest (the cells are sized
+    /// for two of the largest): on a set whose radii span 0.25–2, with pairs exactly at reach,
+    /// both forms find exactly the points within reach, as the test over all pairs does.
+    #[test]
+    fn a_search_box_fitted_to_each_point_misses_no_pair_of_a_wide_size_range() {
+        let n = 900;
+        let positions = half_lattice(9, n, 30.0);
+        let mut radii: Vec<f64> = (0..n).map(|k| 0.25 * (1 + k % 2) as f64).collect();
+        radii[n / 2] = 2.0;
+        let skin = 0.5;
+        let grid = CellGrid::new(&positions, &radii, 2.0 * 2.0 + skin);
+        let within = |i: usize, j: usize| {
+            let d = positions[j] - positions[i];
+            let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+            let reach = radii[i] + radii[j] + skin;
+            j != i && d2 < reach * reach
+        };
+        let mut hits = 0;
+        for i in 0..n {
+            let q = query(&positions, &radii, i, skin);
+            let all: Vec<u32> = (0..n).filter(|&j| within(i, j)).map(|j| j as u32).collect();
+            let forms = [false, crate::numerics::has_avx()];
+            for lanes in forms {
+                let mut found = Vec::new();
+                grid.find_near(&q, lanes, &mut found);
+                found.sort_unstable();
+                assert_eq!(found, all, "point {i}, lanes {lanes}");
+            }
+            hits += all.len();
+        }
+        assert!(hits > 2 * n, "{hits} hits");
+        assert!((0..n).filter(|&j| within(n / 2, j)).count() > 10);
     }
 }
