@@ -45,14 +45,16 @@ pub(super) struct Query<const D: usize> {
 }
 
 impl<const D: usize> CellGrid<D> {
-    /// Bins `positions` (with their `radii`) into cells of at least `cell`.
-    pub(super) fn new(positions: &[SVector<f64, D>], radii: &[f64], cell: f64) -> Self {
+    /// Bins `positions` (with their `radii`) into cells of at least 2 R_max + `skin`, the
+    /// reach of the widest pair.
+    pub(super) fn new(positions: &[SVector<f64, D>], radii: &[f64], skin: f64) -> Self {
+        let largest_radius = radii.iter().copied().fold(0.0, f64::max);
         let (lo, hi) = bounds(positions);
-        // Cells of at least `cell`; coarser where a sparse, spread-out set would otherwise
-        // need more cells than about 4 per point (larger cells still hold every pair within
-        // `cell` in the 3^D around a point).
+        // Cells of at least 2 R_max + skin; coarser where a sparse, spread-out set would
+        // otherwise need more cells than about 4 per point (a query's box holds its partners at
+        // any cell size).
         let target = (4 * positions.len()).max(64) as f64;
-        let mut cell = cell;
+        let mut cell = 2.0 * largest_radius + skin;
         let count = |cell: f64| {
             (0..D)
                 .map(|a| ((hi[a] - lo[a]) / cell).floor() + 1.0)
@@ -71,7 +73,7 @@ impl<const D: usize> CellGrid<D> {
             index: vec![u32::MAX; padded],
             coords: std::array::from_fn(|_| vec![f64::NAN; padded]),
             radii: vec![f64::NAN; padded],
-            largest_radius: radii.iter().copied().fold(0.0, f64::max),
+            largest_radius,
         };
         let cell_of = |p| grid.flat(grid.coords(p));
         let cells: Vec<usize> = if positions.len() >= PARALLEL_FROM {
@@ -291,7 +293,7 @@ mod tests {
         let mut positions = half_lattice(5, 700, 12.0);
         positions[17] = Vector3::new(f64::NAN, 1.0, 2.0);
         let radii: Vec<f64> = (0..700).map(|k| 0.25 * (1 + k % 3) as f64).collect();
-        let grid = CellGrid::new(&positions, &radii, 2.0 * 0.75 + 0.5);
+        let grid = CellGrid::new(&positions, &radii, 0.5);
         let mut hits = 0;
         for i in 0..positions.len() {
             let q = query(&positions, &radii, i, 0.5);
@@ -314,7 +316,7 @@ mod tests {
         let mut radii: Vec<f64> = (0..n).map(|k| 0.25 * (1 + k % 2) as f64).collect();
         radii[n / 2] = 2.0;
         let skin = 0.5;
-        let grid = CellGrid::new(&positions, &radii, 2.0 * 2.0 + skin);
+        let grid = CellGrid::new(&positions, &radii, skin);
         let within = |i: usize, j: usize| {
             let d = positions[j] - positions[i];
             let d2 = d.x * d.x + d.y * d.y + d.z * d.z;

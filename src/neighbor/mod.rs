@@ -192,8 +192,7 @@ impl<const D: usize> NeighborList<D> {
     /// in blocks on the rayon pool, concatenated in index order (the same list either way).
     pub fn build(&mut self, positions: &[SVector<f64, D>], radii: &[f64]) {
         let n = positions.len();
-        let r_max = radii.iter().cloned().fold(0.0, f64::max);
-        let grid = CellGrid::new(positions, radii, 2.0 * r_max + self.skin);
+        let grid = CellGrid::new(positions, radii, self.skin);
         let (skin, lanes) = (self.skin, crate::numerics::has_avx());
         let block = |range: Range<usize>| {
             let (mut found, mut counts) = (Vec::new(), Vec::with_capacity(range.len()));
