@@ -19,8 +19,10 @@ use rayon::prelude::*;
 use crate::numerics::fold_items;
 
 mod grid;
+mod spread;
 
 use grid::{CellGrid, Query};
+pub use spread::{Spread, SpreadWatch};
 
 /// From this many points on, a build searches in parallel blocks of `BUILD_BLOCK` points.
 const PARALLEL_BUILD_FROM: usize = 1024;
@@ -35,6 +37,9 @@ pub struct NeighborList<const D: usize = 3> {
     skin: f64,
     rule: Rebuild,
     builds: usize,
+    /// The displacements' box centre at the last two checks seen by a [`SpreadWatch`] since
+    /// the build (zero before): the watch's guess of the next.
+    centres: [SVector<f64, D>; 2],
 }
 
 /// The lower and upper corners of a bounding box.
@@ -98,6 +103,7 @@ impl<const D: usize> NeighborList<D> {
             skin,
             rule: Rebuild::Distance(rebuild),
             builds: 0,
+            centres: [SVector::zeros(); 2],
         }
     }
 
@@ -172,20 +178,23 @@ impl<const D: usize> NeighborList<D> {
             return fold_items(n, false, |i| watch.beyond(i, &positions[i]), any);
         }
         // the spread rule
-        let limit = 0.5 * self.skin;
-        let moved = |i: usize| positions[i] - self.reference[i];
-        let beyond = |c: SVector<f64, D>| {
-            let out = |i: usize| (moved(i) - c).norm_squared() > limit * limit;
-            fold_items(n, false, out, any)
-        };
-        if !beyond(SVector::zeros()) {
+        if !self.beyond(positions, SVector::zeros()) {
             return false;
         }
+        let moved = |i: usize| positions[i] - self.reference[i];
         let far = SVector::<f64, D>::repeat(f64::INFINITY);
         let bounds = |i: usize| (moved(i), moved(i));
         let merge = |(lo, hi): Bounds<D>, (a, b): Bounds<D>| (lo.inf(&a), hi.sup(&b));
         let (lo, hi) = fold_items(n, (far, -far), bounds, merge);
-        beyond(0.5 * (lo + hi))
+        self.beyond(positions, 0.5 * (lo + hi))
+    }
+
+    /// Whether some point's displacement since the build differs from `centre` by more than
+    /// half the skin.
+    fn beyond(&self, positions: &[SVector<f64, D>], centre: SVector<f64, D>) -> bool {
+        let limit2 = (0.5 * self.skin).powi(2);
+        let out = |i: usize| (positions[i] - self.reference[i] - centre).norm_squared() > limit2;
+        fold_items(positions.len(), false, out, |a, b| a || b)
     }
 
     /// Builds the list from a cell grid of cell size 2 R_max + skin; large sets are searched
@@ -231,6 +240,7 @@ impl<const D: usize> NeighborList<D> {
         self.concatenate(&blocks, end);
         self.reference.clear();
         self.reference.extend_from_slice(positions);
+        self.centres = [SVector::zeros(); 2];
         self.builds += 1;
     }
 }

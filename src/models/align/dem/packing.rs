@@ -37,7 +37,7 @@ use rayon::prelude::*;
 
 use super::contacts::{ContactLaw, Container};
 use crate::models::align::params::{PackingParams, ReleaseScheme, RestMeasure, SettlingScheme};
-use crate::neighbor::NeighborList;
+use crate::neighbor::{NeighborList, Spread, SpreadWatch};
 use crate::rng::{run_stream, Purpose};
 
 mod hertz_lanes;
@@ -265,14 +265,15 @@ impl Packing {
             down_force: stage.down_force,
             radius: &self.radius,
         };
+        // what the last FIRE step's moves saw for the list's rebuild check
+        let mut seen = None;
         for step in 0..MAX_STEPS {
-            let [max_force, max_stiffness, max_overlap] = loads.evaluate(
-                &self.position,
+            let [max_force, max_stiffness, max_overlap] = loads.evaluate_seen(
+                (&self.position, seen),
                 &self.container,
                 &mut list,
                 &mut force,
                 &mut work,
-                as_gathered,
             );
             if !max_force.is_finite() {
                 return Err("packing: non-finite force (numerical blow-up)".into());
@@ -295,7 +296,9 @@ impl Packing {
             }
             match &mut stepper {
                 Stepper::Fire(fire) => {
-                    fire.step(&mut self.position, &force, sums, max_stiffness, max_force)
+                    let watch = list.spread_watch(n);
+                    let forces = (&force[..], sums);
+                    seen = fire.step(&mut self.position, forces, max_stiffness, max_force, watch)
                 }
                 Stepper::Heun { trial, trial_force } => {
                     // explicit on γ ẋ = F: stable for dt λ ≤ 2, and λ ≤ 2 k_max (Gershgorin)
@@ -409,7 +412,36 @@ impl Loads<'_> {
         then: impl Fn(usize, &mut Load) + Sync,
     ) -> [f64; 3] {
         let built = list.update(position, self.radius);
-        let list = &*list;
+        self.gathered(position, container, list, (force, built), work, then)
+    }
+
+    /// [`Self::evaluate`] after moves that ran the list's spread watch over every particle
+    /// and saw `seen` (None: no watch ran), with no `then`.
+    fn evaluate_seen(
+        &self,
+        (position, seen): (&[Vector3<f64>], Option<Spread<3>>),
+        container: &Container,
+        list: &mut NeighborList<3>,
+        force: &mut [Load],
+        work: &mut ContactWork,
+    ) -> [f64; 3] {
+        let built = match seen {
+            Some(seen) => list.update_seen(position, self.radius, seen),
+            None => list.update(position, self.radius),
+        };
+        self.gathered(position, container, list, (force, built), work, as_gathered)
+    }
+
+    /// [`Self::evaluate`] on an up-to-date list (`built`: whether it was built for it).
+    fn gathered(
+        &self,
+        position: &[Vector3<f64>],
+        container: &Container,
+        list: &NeighborList<3>,
+        (force, built): (&mut [Load], bool),
+        work: &mut ContactWork,
+        then: impl Fn(usize, &mut Load) + Sync,
+    ) -> [f64; 3] {
         let (largest, contacts) = force
             .par_iter_mut()
             .enumerate()
@@ -589,15 +621,16 @@ impl Fire {
     }
 
     /// One step from the forces `force` at `position`, `sums` their `fire_sums` with the
-    /// velocities.
+    /// velocities; returns what `watch` (a neighbour list's rebuild check) saw of the moved
+    /// particles, in the same pass.
     fn step(
         &mut self,
         position: &mut [Vector3<f64>],
-        force: &[Load],
-        [power, v_squared, f_squared]: [f64; 3],
+        (force, [power, v_squared, f_squared]): (&[Load], [f64; 3]),
         max_stiffness: f64,
         max_force: f64,
-    ) {
+        watch: Option<SpreadWatch<3>>,
+    ) -> Option<Spread<3>> {
         let floor = self.mass_floor;
         let mass = |f: &Load| (f.1 / max_stiffness).max(floor);
         let (v_norm, f_norm) = (v_squared.sqrt(), f_squared.sqrt());
@@ -629,14 +662,26 @@ impl Fire {
             .dt
             .min(dt_max)
             .min(MAX_MOVE / speed.max(f64::MIN_POSITIVE));
-        position
-            .par_iter_mut()
-            .zip(&mut self.velocity)
-            .zip(force)
-            .for_each(|((x, v), f)| {
-                *v += dt / mass(f) * f.0;
-                *x += dt * *v;
-            });
+        // in pieces, each a plain loop that keeps what the watch saw in registers (an
+        // iterator's map and reduce per particle made the pass slower than the walks saved)
+        let seen = (position.par_chunks_mut(EVALUATE_PIECE))
+            .zip(self.velocity.par_chunks_mut(EVALUATE_PIECE))
+            .enumerate()
+            .map(|(c, (x, v))| {
+                let start = c * EVALUATE_PIECE;
+                let f = &force[start..start + x.len()];
+                let mut seen = Spread::none();
+                for (k, ((x, v), f)) in x.iter_mut().zip(v).zip(f).enumerate() {
+                    *v += dt / mass(f) * f.0;
+                    *x += dt * *v;
+                    if let Some(watch) = &watch {
+                        watch.see(&mut seen, start + k, x);
+                    }
+                }
+                seen
+            })
+            .reduce(Spread::none, Spread::merge);
+        watch.map(|_| seen)
     }
 }
 

@@ -62,15 +62,7 @@ unsafe fn add_particle_contacts_avx(
     listed: &[u32],
     load: &mut Load,
 ) {
-    let own = Own {
-        index: i,
-        x: _mm256_set1_pd(position[i].x),
-        y: _mm256_set1_pd(position[i].y),
-        z: _mm256_set1_pd(position[i].z),
-        r: _mm256_set1_pd(radius[i]),
-        skin: _mm256_set1_pd(law.skin),
-        modulus: _mm256_set1_pd(4.0 / 3.0 * law.effective_modulus),
-    };
+    let own = own(law, i, position, radius);
     let mut acc = Sums {
         rows: _mm256_set_pd(load.1, load.0.z, load.0.y, load.0.x),
         deepest: _mm256_setzero_pd(),
@@ -105,6 +97,75 @@ unsafe fn add_particle_contacts_avx(
     load.1 = s[3];
     load.2 = d.into_iter().fold(load.2, f64::max);
     load.3 += acc.count;
+}
+
+/// Calls `emit(j, n, k)` for each of particle i's listed neighbours j that touches it with
+/// stiffness k > 0 (n: the unit normal towards j), in list order: the contacts that
+/// [`ContactLaw::particle_contacts_of`] emits and whose Hertz stiffness is positive, with the
+/// same bits; with AVX where the processor has it (the release's linearization, which took
+/// about as long as a force evaluation with the portable form).
+pub(super) fn touching_contacts(
+    law: &ContactLaw,
+    i: usize,
+    position: &[Vector3<f64>],
+    radius: &[f64],
+    neighbors: &NeighborList,
+    mut emit: impl FnMut(u32, Vector3<f64>, f64),
+) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::numerics::has_avx() {
+        let listed = neighbors.of(i);
+        // SAFETY: the processor has AVX.
+        return unsafe { touching_contacts_avx(law, i, position, radius, listed, &mut emit) };
+    }
+    law.particle_contacts_of(i, position, radius, neighbors, |j, c| {
+        let k = c.stiffness_at(c.overlap);
+        if k > 0.0 {
+            emit(j, c.normal, k);
+        }
+    });
+}
+
+/// The AVX form of [`touching_contacts`], four entries at a time.
+///
+/// # Safety
+/// Only where the processor has AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn touching_contacts_avx(
+    law: &ContactLaw,
+    i: usize,
+    position: &[Vector3<f64>],
+    radius: &[f64],
+    listed: &[u32],
+    emit: &mut impl FnMut(u32, Vector3<f64>, f64),
+) {
+    let own = own(law, i, position, radius);
+    for four in listed.chunks(4) {
+        let j = [0, 1, 2, 3].map(|k| four.get(k).map_or(i, |&j| j as usize));
+        // SAFETY (these calls): the processor has AVX; each array holds 4 f64.
+        let t = unsafe { four_terms(&own, load_four(position, radius, j)) };
+        let touching = _mm256_cmp_pd::<_CMP_GT_OQ>(t.stiffness, _mm256_setzero_pd());
+        let mut hits = _mm256_movemask_pd(touching);
+        if hits == 0 {
+            continue;
+        }
+        let lanes = |v| {
+            let mut out = [0.0; 4];
+            unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
+            out
+        };
+        let ([nx, ny, nz], k) = (t.normal.map(lanes), lanes(t.stiffness));
+        while hits != 0 {
+            let lane = hits.trailing_zeros() as usize;
+            emit(
+                j[lane] as u32,
+                Vector3::new(nx[lane], ny[lane], nz[lane]),
+                k[lane],
+            );
+            hits &= hits - 1;
+        }
+    }
 }
 
 /// Listed entries tested for reach before their sums are taken (a multiple of 4; rows longer
@@ -159,6 +220,25 @@ struct Own {
     skin: __m256d,
     /// (4/3) E*/E.
     modulus: __m256d,
+}
+
+/// Particle i's [`Own`].
+///
+/// # Safety
+/// Only where the processor has AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn own(law: &ContactLaw, i: usize, position: &[Vector3<f64>], radius: &[f64]) -> Own {
+    Own {
+        index: i,
+        x: _mm256_set1_pd(position[i].x),
+        y: _mm256_set1_pd(position[i].y),
+        z: _mm256_set1_pd(position[i].z),
+        r: _mm256_set1_pd(radius[i]),
+        skin: _mm256_set1_pd(law.skin),
+        modulus: _mm256_set1_pd(4.0 / 3.0 * law.effective_modulus),
+    }
 }
 
 /// Four entries' centres and radii, one coordinate per register.
@@ -222,15 +302,26 @@ unsafe fn reach_test(own: &Own, q: &Four) -> ([__m256d; 3], __m256d, __m256d) {
     ([dx, dy, dz], d2, limit)
 }
 
-/// Four entries side by side: each entry's row (f n_x, f n_y, f n_z, −k), +0 where it is no
-/// contact; the overlaps of the contacts (+0 elsewhere); the mask of the contacts.
+/// Four entries' contact terms side by side, with the portable form's operations in its
+/// order: the unit normals, the force and stiffness (+0 where not touching), the overlap, and
+/// the mask of the contacts.
+#[cfg(target_arch = "x86_64")]
+struct Terms {
+    normal: [__m256d; 3],
+    force: __m256d,
+    stiffness: __m256d,
+    overlap: __m256d,
+    kept: __m256d,
+}
+
+/// The terms of four entries.
 ///
 /// # Safety
 /// Only where the processor has AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 #[inline]
-unsafe fn four_entries(own: &Own, q: Four) -> ([__m256d; 4], __m256d, __m256d) {
+unsafe fn four_terms(own: &Own, q: Four) -> Terms {
     let ([dx, dy, dz], d2, limit) = reach_test(own, &q);
     let r_j = q.r;
     let mul = |a, b| _mm256_mul_pd(a, b);
@@ -250,14 +341,32 @@ unsafe fn four_entries(own: &Own, q: Four) -> ([__m256d; 4], __m256d, __m256d) {
     let hertz = mul(own.modulus, _mm256_sqrt_pd(r_star));
     let root = _mm256_sqrt_pd(overlap);
     let touching = _mm256_and_pd(kept, _mm256_cmp_pd::<_CMP_GT_OQ>(overlap, zero));
-    let force = _mm256_and_pd(touching, mul(mul(hertz, overlap), root));
-    let stiffness = _mm256_and_pd(touching, mul(mul(_mm256_set1_pd(1.5), hertz), root));
-    let along = |d| _mm256_and_pd(kept, mul(force, _mm256_div_pd(d, dist)));
-    let (fx, fy, fz) = (along(dx), along(dy), along(dz));
-    let minus_k = _mm256_and_pd(kept, _mm256_xor_pd(stiffness, minus));
+    Terms {
+        normal: [dx, dy, dz].map(|d| _mm256_div_pd(d, dist)),
+        force: _mm256_and_pd(touching, mul(mul(hertz, overlap), root)),
+        stiffness: _mm256_and_pd(touching, mul(mul(_mm256_set1_pd(1.5), hertz), root)),
+        overlap,
+        kept,
+    }
+}
+
+/// Four entries side by side: each entry's row (f n_x, f n_y, f n_z, −k), +0 where it is no
+/// contact; the overlaps of the contacts (+0 elsewhere); the mask of the contacts.
+///
+/// # Safety
+/// Only where the processor has AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn four_entries(own: &Own, q: Four) -> ([__m256d; 4], __m256d, __m256d) {
+    let t = unsafe { four_terms(own, q) };
+    let kept = t.kept;
+    let along = |n| _mm256_and_pd(kept, _mm256_mul_pd(t.force, n));
+    let [fx, fy, fz] = t.normal.map(along);
+    let minus_k = _mm256_and_pd(kept, _mm256_xor_pd(t.stiffness, _mm256_set1_pd(-0.0)));
     // rows (f n_x, f n_y, f n_z, −k) of entries 0–3
     let rows = unsafe { transpose4([fx, fy, fz, minus_k]) };
-    (rows, _mm256_and_pd(kept, overlap), kept)
+    (rows, _mm256_and_pd(kept, t.overlap), kept)
 }
 
 #[cfg(test)]
@@ -276,31 +385,14 @@ mod tests {
         if !crate::numerics::has_avx() {
             return;
         }
-        let n = 400;
-        let radius: Vec<f64> = (0..n).map(|k| [1.0, 0.7, 1.3][k % 3]).collect();
-        let position: Vec<_> = (0..n)
-            .map(|k| {
-                let t = k as f64;
-                Vector3::new(
-                    6.0 * (1.3 * t).sin().abs(),
-                    6.0 * (0.7 * t).cos().abs(),
-                    6.0 * (0.37 * t).sin().abs(),
-                )
-            })
-            .collect();
-        let mut list = NeighborList::new(0.3);
-        list.build(&position, &radius);
+        let (radius, position, list) = jumble();
+        let n = radius.len();
         let (mut lengths, mut contacts) = (std::collections::BTreeSet::new(), 0);
         let longest = (0..n).map(|i| list.of(i).len()).max().unwrap();
         #[cfg(target_arch = "x86_64")]
         assert!(longest > 2 * BLOCK, "rows across blocks: {longest}");
         for skin in [0.0, 0.2] {
-            let law = ContactLaw {
-                effective_modulus: 0.55,
-                friction: 0.0,
-                wall_friction: 0.0,
-                skin,
-            };
+            let law = law(skin);
             for i in 0..n {
                 lengths.insert(list.of(i).len() % 4);
                 let start: Load = (Vector3::new(0.0, -0.0, -0.25 * i as f64), 0.0, 0.0, 0);
@@ -320,5 +412,63 @@ mod tests {
         }
         assert!(contacts > 2 * n as u32, "{contacts}");
         assert_eq!(lengths.len(), 4, "every remainder: {lengths:?}");
+    }
+
+    /// A dense jumble of 400 spheres of three sizes and its list (skin 0.3): rows of every
+    /// length, some spanning several blocks.
+    fn jumble() -> (Vec<f64>, Vec<Vector3<f64>>, NeighborList) {
+        let n = 400;
+        let radius: Vec<f64> = (0..n).map(|k| [1.0, 0.7, 1.3][k % 3]).collect();
+        let position: Vec<_> = (0..n)
+            .map(|k| {
+                let t = k as f64;
+                Vector3::new(
+                    6.0 * (1.3 * t).sin().abs(),
+                    6.0 * (0.7 * t).cos().abs(),
+                    6.0 * (0.37 * t).sin().abs(),
+                )
+            })
+            .collect();
+        let mut list = NeighborList::new(0.3);
+        list.build(&position, &radius);
+        (radius, position, list)
+    }
+
+    fn law(skin: f64) -> ContactLaw {
+        ContactLaw {
+            effective_modulus: 0.55,
+            friction: 0.0,
+            wall_friction: 0.0,
+            skin,
+        }
+    }
+
+    /// The touching contacts the release's linearization stores: the AVX form emits the
+    /// portable form's partners, normals and stiffnesses bit for bit, in list order (with and
+    /// without a contact skin, which emits contacts at a gap that touch nothing).
+    #[test]
+    fn avx_and_portable_touching_contacts_are_identical() {
+        let (radius, position, list) = jumble();
+        let mut touching = 0;
+        for skin in [0.0, 0.2] {
+            let law = law(skin);
+            for i in 0..radius.len() {
+                let bits = |j: u32, n: Vector3<f64>, k: f64| (j, n.map(f64::to_bits), k.to_bits());
+                let mut portable = Vec::new();
+                law.particle_contacts_of(i, &position, &radius, &list, |j, c| {
+                    let k = c.stiffness_at(c.overlap);
+                    if k > 0.0 {
+                        portable.push(bits(j, c.normal, k));
+                    }
+                });
+                let mut lanes = Vec::new();
+                touching_contacts(&law, i, &position, &radius, &list, |j, n, k| {
+                    lanes.push(bits(j, n, k))
+                });
+                assert_eq!(portable, lanes, "particle {i}, skin {skin}");
+                touching += lanes.len();
+            }
+        }
+        assert!(touching > 2 * radius.len(), "{touching}");
     }
 }

@@ -25,9 +25,10 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::hertz_lanes::touching_contacts;
 use super::local::Corrections;
 use super::release::Anchor;
-use super::{ordered_update_in, ContactWork, Load, Loads, MAX_MOVE};
+use super::{ordered_update_in, ContactWork, Load, Loads, Repulsion, MAX_MOVE};
 use crate::models::align::dem::contacts::{Contact, Container};
 use crate::neighbor::NeighborList;
 
@@ -113,14 +114,25 @@ impl Stiffness {
                 springs.clear();
                 end.clear();
                 for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                    let mut store = |partner, contact: Contact| {
-                        let (_, stiffness) = repulsion.force_and_stiffness(&contact);
+                    let mut spring = |partner, normal, stiffness: f64| {
                         if stiffness > 0.0 {
-                            springs.push(Spring::new(partner, contact.normal, stiffness));
+                            springs.push(Spring::new(partner, normal, stiffness));
                         }
                     };
-                    law.particle_contacts_of(i, position, radius, list, &mut store);
-                    law.wall_contacts_of(i, position, radius, container, |_, c| store(FIXED, c));
+                    let stiffness = |c: &Contact| repulsion.force_and_stiffness(c).1;
+                    match repulsion {
+                        Repulsion::Hertz => {
+                            touching_contacts(law, i, position, radius, list, &mut spring)
+                        }
+                        Repulsion::Harmonic => {
+                            law.particle_contacts_of(i, position, radius, list, |j, c| {
+                                spring(j, c.normal, stiffness(&c))
+                            })
+                        }
+                    }
+                    law.wall_contacts_of(i, position, radius, container, |_, c| {
+                        spring(FIXED, c.normal, stiffness(&c))
+                    });
                     end.push(springs.len() as u32);
                 }
             });
