@@ -9,7 +9,9 @@
 //! ([`NeighborList::with_rebuild_distance`]): then pairs can enter R_i + R_j unseen between
 //! builds, which is what a list summed without a cut-off (de Paula 2025, §5.1) does. Or it may
 //! wait until the displacements spread over the skin ([`NeighborList::rebuilt_on_spread`]),
-//! which misses no pair either and lasts longer where part of the set moves as one.
+//! which misses no pair either and lasts longer where part of the set moves as one. A caller
+//! that moves every point can run either check in its own pass ([`NeighborList::watch`],
+//! [`NeighborList::spread_watch`]), so that the list needs no walk of its own.
 
 use std::ops::Range;
 
