@@ -220,7 +220,7 @@ mod tests {
     /// ln Γ at integer or half-integer 2a/2 > 0 by exact recurrence from Γ(1) = 1 and
     /// Γ(1/2) = √π (independent of the Lanczos formula).
     fn ln_gamma_half(twice: usize) -> f64 {
-        let (mut acc, mut x) = if twice % 2 == 0 {
+        let (mut acc, mut x) = if twice.is_multiple_of(2) {
             (0.0, 1.0)
         } else {
             (0.5 * std::f64::consts::PI.ln(), 0.5)

@@ -433,7 +433,7 @@ impl Axis {
             let stride = decades.len().div_ceil(n.max(2));
             let bold: Vec<f64> = decades
                 .iter()
-                .filter(|k| (**k - first) as usize % stride == 0)
+                .filter(|k| ((**k - first) as usize).is_multiple_of(stride))
                 .map(|k| 10f64.powi(*k))
                 .collect();
             let light = if stride == 1 {

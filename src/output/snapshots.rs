@@ -176,7 +176,7 @@ impl<'a> Recorder<'a> {
     /// Whether the schedule asks for a frame after `step` steps at simulated time `time` (s).
     /// Every scheduled time up to `time` counts as served by this frame.
     pub fn due(&mut self, step: u64, time: f64) -> bool {
-        let every = self.schedule.every.is_some_and(|k| step % k == 0);
+        let every = self.schedule.every.is_some_and(|k| step.is_multiple_of(k));
         let times = &self.schedule.times;
         let mut at_time = false;
         while self.next_time < times.len() && times[self.next_time] <= time * (1.0 + 1e-12) {

@@ -224,7 +224,7 @@ impl Tail {
         };
         let level = |edge: usize, distance: usize| {
             let mut size = 1;
-            while edge % (2 * size) == 0 && COARSE * 2 * size <= distance {
+            while edge.is_multiple_of(2 * size) && COARSE * 2 * size <= distance {
                 size *= 2;
             }
             size

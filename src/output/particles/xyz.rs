@@ -178,7 +178,7 @@ fn units(text: &str) -> Vec<(String, String)> {
 /// The (name, width) list of `Properties`, checked to start with the fixed columns.
 fn properties(text: &str) -> Result<Vec<(String, usize)>> {
     let parts: Vec<&str> = text.split(':').collect();
-    if parts.len() % 3 != 0 {
+    if !parts.len().is_multiple_of(3) {
         return Err(Error::input(format!("bad Properties: '{text}'")));
     }
     let columns: Vec<(String, usize)> = parts

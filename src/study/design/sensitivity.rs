@@ -322,7 +322,7 @@ pub fn morris_points_spread(
 
 fn check_levels(levels: usize) {
     assert!(
-        levels >= 2 && levels % 2 == 0,
+        levels >= 2 && levels.is_multiple_of(2),
         "Morris levels must be even and at least 2, not {levels}"
     );
 }
@@ -381,7 +381,7 @@ pub fn morris_effects(points: &[Vec<f64>], y: &[f64], dims: usize) -> Vec<Morris
         "morris_effects: points and outputs differ in number"
     );
     assert!(
-        points.len() % (dims + 1) == 0,
+        points.len().is_multiple_of(dims + 1),
         "morris_effects: {} points are not whole trajectories of {} points",
         points.len(),
         dims + 1

@@ -56,7 +56,7 @@ impl Settings {
 
     /// Checks the population (even, ≥ 4) and the operators' parameters.
     pub fn validate(&self) -> Result<(), String> {
-        if self.population < 4 || self.population % 2 != 0 {
+        if self.population < 4 || !self.population.is_multiple_of(2) {
             return Err(format!(
                 "population {} is not allowed (need an even number ≥ 4)",
                 self.population

@@ -612,7 +612,7 @@ mod tests {
             let by = (own + k % 4).saturating_sub(2).min(slabs - 1);
             corrections.touched[by].push(j);
         }
-        let keep = |j: usize| j % 5 != 0;
+        let keep = |j: usize| !j.is_multiple_of(5);
         let mut sorted: Vec<usize> = corrections.touched.concat();
         sorted.sort_unstable();
         sorted.retain(|&j| keep(j));

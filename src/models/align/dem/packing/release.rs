@@ -481,7 +481,8 @@ mod tests {
     /// whose value depends on the order of addition (terms from 1e16 down to 1).
     #[test]
     fn ordered_sums_are_the_same_at_any_thread_count() {
-        let term = |i: usize| 10f64.powi((i % 17) as i32) * if i % 3 == 0 { -1.0 } else { 1.0 };
+        let term =
+            |i: usize| 10f64.powi((i % 17) as i32) * if i.is_multiple_of(3) { -1.0 } else { 1.0 };
         let sum_on = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -501,7 +502,8 @@ mod tests {
     /// of its values.
     #[test]
     fn ordered_update_sums_as_ordered_sums_do() {
-        let term = |i: usize| 10f64.powi((i % 17) as i32) * if i % 3 == 0 { -1.0 } else { 1.0 };
+        let term =
+            |i: usize| 10f64.powi((i % 17) as i32) * if i.is_multiple_of(3) { -1.0 } else { 1.0 };
         let want = ordered_sums(10_001, |i| [term(i), -2.0 * term(i)]);
         for threads in [1, 2, 3] {
             let pool = rayon::ThreadPoolBuilder::new()
