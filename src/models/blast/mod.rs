@@ -22,6 +22,7 @@ pub mod observe;
 pub mod pairs;
 pub mod params;
 pub mod single;
+mod single_lanes;
 pub mod snapshot;
 pub mod study;
 pub mod switches;

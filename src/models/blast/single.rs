@@ -5,8 +5,9 @@
 //! at most [`EXTENT_LIMIT`] diameters across, where its error has a bound below 10⁻³.
 //!
 //! Why it is faster: the exact kernel is bound by one square root and one division per pair
-//! on four double lanes; here eight single lanes share each such instruction, and the
-//! divider takes single-precision operands in fewer cycles.
+//! on four double lanes; here eight (AVX) or sixteen (AVX-512) single lanes share each such
+//! instruction and each product, and the divider takes single-precision operands in fewer
+//! cycles (the kernels: [`super::single_lanes`]).
 //!
 //! Why it stays accurate: the positions are taken relative to the centre of the cloud's
 //! bounding box and in units of the particle diameter L = 2R, so every quantity in the lanes
@@ -15,19 +16,17 @@
 //! gather, which also sums each particle's tile results in double precision. Every operation
 //! is IEEE single precision (square root and division correctly rounded; the sums of
 //! squares and the accumulations fused multiply-adds, rounded once, in the lanes and in the
-//! portable loop alike), so the AVX lanes give the portable loop's bits and the result does
-//! not depend on the machine or the thread count. Pairs are summed in tiles as in [`crate::numerics::tiled_pairs`]:
+//! portable loop alike), so the AVX and AVX-512 lanes give the portable loop's bits and the
+//! result does not depend on the machine or the thread count. Pairs are summed in tiles as in [`crate::numerics::tiled_pairs`]:
 //! each unordered pair once (action = reaction within a tile pair), tile results combined in
 //! tile order.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-#[cfg(target_arch = "x86_64")]
-use std::arch::x86_64::*;
-
 use super::pairs::PairLaw;
-use crate::numerics::tiled_pairs::{results_of, size_tile_pairs, tile, TilePair};
+use super::single_lanes::{self, Columns, Form, Sums, LANES, TILE};
+use crate::numerics::tiled_pairs::{results_of, size_tile_pairs};
 
 /// The largest bounding-box side, in particle diameters, over which `auto` precision uses
 /// these lanes. Why 1000: centred coordinates of magnitude ≤ E/2 are rounded within
@@ -45,25 +44,17 @@ pub fn within_extent_limit(law: &PairLaw, positions: &[Vector3<f64>]) -> bool {
     (high - low).max() <= EXTENT_LIMIT * 2.0 * law.radius
 }
 
-/// Single-precision lanes of an AVX register (TILE is a multiple).
-const LANES: usize = 8;
-
-/// Particles per tile: twice the double kernel's, since a tile pair's data take half the
-/// bytes, and each particle's eight lanes are reduced once per TILE partners.
-const TILE: usize = 128;
-
 /// Where the padding points sit (in diameters): far enough that their pull on the cloud is
 /// finite and tiny, and it is multiplied by their zero sign anyway.
 const FAR: f32 = 1e15;
-
-/// One tile pair's single-precision sums.
-type Sums = TilePair<f32, TILE, 3>;
 
 /// The kernel's buffers, reused between evaluations (no allocation once sized).
 #[derive(Debug, Clone, Default)]
 pub struct SinglePairs {
     /// Scaled coordinates x, y, z and the charge signs c (0 for padding), padded to LANES.
-    at: [Vec<f32>; 4],
+    at: Columns,
+    /// Whether some sign is −1.
+    signed: bool,
     /// Scaled coefficients (A1, A2) / max(A1, A2).
     coefficients: (f32, f32),
     pairs: Vec<Sums>,
@@ -81,7 +72,7 @@ impl SinglePairs {
         out: &mut [Vector3<f64>],
     ) {
         let scale = self.load(law, positions, charge_per_mass);
-        self.fill(has_avx_fma());
+        self.fill(Form::detect());
         self.gather(scale, out);
     }
 
@@ -112,25 +103,16 @@ impl SinglePairs {
             let fill = if c == 0 { FAR } else { 0.0 };
             column.resize(padded, fill);
         }
+        self.signed = self.at[3].contains(&-1.0);
         scale
     }
 
-    /// Evaluates every tile pair, on the rayon pool, with AVX where the processor has it.
-    fn fill(&mut self, avx: bool) {
+    /// Evaluates every tile pair, on the rayon pool, with `form` (one the processor runs).
+    fn fill(&mut self, form: Form) {
         self.tiles = self.at[0].len().div_ceil(TILE);
         size_tile_pairs(&mut self.pairs, self.tiles);
-        let at = &self.at;
-        let c = self.coefficients;
-        self.pairs.par_iter_mut().for_each(|pair| {
-            #[cfg(target_arch = "x86_64")]
-            if avx {
-                // SAFETY: `avx` is true only where the processor has AVX and FMA.
-                return unsafe { tile_pair_avx(at, c, pair) };
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            let _ = avx; // no AVX kernel off x86-64
-            tile_pair(at, c, pair);
-        });
+        let (at, c, signed) = (&self.at, self.coefficients, self.signed);
+        (self.pairs.par_iter_mut()).for_each(|pair| single_lanes::fill(form, at, c, signed, pair));
     }
 
     /// Each particle's force: its sign times the force scale times its tile results summed
@@ -163,110 +145,6 @@ fn bounding_box(positions: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
     positions
         .iter()
         .fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)))
-}
-
-/// The pair term's scale for the separation d (scaled): inv² (c1 − c2 inv), zero at d = 0;
-/// the term is d times it. Fused multiply-adds where the lanes use them (`mul_add` rounds
-/// once, as the FMA instruction does).
-#[inline(always)]
-fn pair_scale(d: [f32; 3], (c1, c2): (f32, f32)) -> f32 {
-    let r2 = d[2].mul_add(d[2], d[1].mul_add(d[1], d[0] * d[0]));
-    let reciprocal = 1.0 / r2.sqrt();
-    let inv = if r2 > 0.0 { reciprocal } else { 0.0 };
-    inv * inv * (-c2).mul_add(inv, c1)
-}
-
-/// Whether the processor has AVX and FMA (the lanes' instructions).
-fn has_avx_fma() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return std::arch::is_x86_feature_detected!("avx")
-        && std::arch::is_x86_feature_detected!("fma");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// One tile pair, portable: i gains d s c_j and j loses d s c_i (the signs c = ±1 folded
-/// into the scale s, exactly); lane l of a group accumulates partner group + l, and the
-/// lanes are combined as ((0+1)+(2+3))+((4+5)+(6+7)), as [`tile_pair_avx`] does.
-fn tile_pair(at: &[Vec<f32>; 4], c: (f32, f32), pair: &mut Sums) {
-    let len = at[0].len();
-    let (first, second) = (
-        tile::<TILE>(pair.tiles.0, len),
-        tile::<TILE>(pair.tiles.1, len),
-    );
-    pair.on_second = [[0.0; TILE]; 3];
-    for (a, i) in first.enumerate() {
-        let mut acc = [[0.0f32; LANES]; 3];
-        for b in 0..second.len() {
-            let j = second.start + b;
-            let d: [f32; 3] = std::array::from_fn(|k| at[k][j] - at[k][i]);
-            let s = pair_scale(d, c);
-            let (on_i, on_j) = (s * at[3][j], s * at[3][i]);
-            for ((lanes, side), d) in acc.iter_mut().zip(&mut pair.on_second).zip(d) {
-                lanes[b % LANES] = d.mul_add(on_i, lanes[b % LANES]);
-                side[b] = (-d).mul_add(on_j, side[b]);
-            }
-        }
-        for (side, lanes) in pair.on_first.iter_mut().zip(acc) {
-            side[a] = reduce(lanes);
-        }
-    }
-}
-
-/// ((a0+a1)+(a2+a3))+((a4+a5)+(a6+a7)).
-fn reduce(a: [f32; LANES]) -> f32 {
-    ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]))
-}
-
-/// [`tile_pair`] on eight AVX lanes: the same operations in the same order.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma")]
-unsafe fn tile_pair_avx(at: &[Vec<f32>; 4], (c1, c2): (f32, f32), pair: &mut Sums) {
-    let len = at[0].len();
-    let (first, second) = (
-        tile::<TILE>(pair.tiles.0, len),
-        tile::<TILE>(pair.tiles.1, len),
-    );
-    pair.on_second = [[0.0; TILE]; 3];
-    let (c1, c2) = (_mm256_set1_ps(c1), _mm256_set1_ps(c2));
-    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
-    for (a, i) in first.enumerate() {
-        let own = at.each_ref().map(|v| _mm256_set1_ps(v[i]));
-        let mut acc = [zero; 3];
-        for b in (0..second.len()).step_by(LANES) {
-            let j = second.start + b;
-            // SAFETY: the padded arrays hold whole groups of LANES from every tile start.
-            let other = at
-                .each_ref()
-                .map(|v| unsafe { _mm256_loadu_ps(v[j..j + 8].as_ptr()) });
-            let d: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(other[k], own[k]));
-            let r2 = _mm256_fmadd_ps(
-                d[2],
-                d[2],
-                _mm256_fmadd_ps(d[1], d[1], _mm256_mul_ps(d[0], d[0])),
-            );
-            let reciprocal = _mm256_div_ps(one, _mm256_sqrt_ps(r2));
-            let inv = _mm256_and_ps(reciprocal, _mm256_cmp_ps::<_CMP_GT_OQ>(r2, zero));
-            let s = _mm256_mul_ps(_mm256_mul_ps(inv, inv), _mm256_fnmadd_ps(c2, inv, c1));
-            let (on_i, on_j) = (_mm256_mul_ps(s, other[3]), _mm256_mul_ps(s, own[3]));
-            for ((lanes, side), d) in acc.iter_mut().zip(&mut pair.on_second).zip(d) {
-                *lanes = _mm256_fmadd_ps(d, on_i, *lanes);
-                let slot = &mut side[b..b + 8];
-                // SAFETY: `slot` holds 8 f32.
-                unsafe {
-                    let running = _mm256_loadu_ps(slot.as_ptr());
-                    let next = _mm256_fnmadd_ps(d, on_j, running);
-                    _mm256_storeu_ps(slot.as_mut_ptr(), next);
-                }
-            }
-        }
-        for (side, lanes) in pair.on_first.iter_mut().zip(acc) {
-            let mut values = [0.0f32; LANES];
-            // SAFETY: `values` holds 8 f32.
-            unsafe { _mm256_storeu_ps(values.as_mut_ptr(), lanes) };
-            side[a] = reduce(values);
-        }
-    }
 }
 
 #[cfg(test)]
@@ -312,28 +190,39 @@ mod tests {
         }
     }
 
-    /// The AVX lanes give the portable loop's bits, so a run does not depend on the
-    /// machine's vector width.
+    /// Every form the processor runs (portable, AVX, AVX-512) gives the portable loop's bits,
+    /// so a run does not depend on the machine's vector width; for a cloud of like charges the
+    /// SIMD forms' shortcut without the signs' products gives the bits of the signed loop. A
+    /// cloud of 203 leaves a partial tile and partial lane groups.
     #[test]
-    fn avx_and_portable_single_sums_are_identical() {
-        if !has_avx_fma() {
-            return;
-        }
-        let mut p = BlastParams::source_example();
-        p.near_field.charge_sign = true;
-        let law = PairLaw::new(&p);
-        let (positions, q) = cloud(203, Vector3::zeros());
-        let sums: Vec<Vec<Vector3<f64>>> = [true, false]
-            .iter()
-            .map(|&avx| {
+    fn every_form_of_the_single_sums_gives_the_same_bits() {
+        let law = |charge_sign| {
+            let mut p = BlastParams::source_example();
+            p.near_field.charge_sign = charge_sign;
+            PairLaw::new(&p)
+        };
+        let (positions, mixed) = cloud(203, Vector3::zeros());
+        let like = vec![10.0; positions.len()];
+        for (law, q) in [
+            (law(true), &mixed),
+            (law(false), &mixed),
+            (law(true), &like),
+        ] {
+            let sums = |form, signed: Option<bool>| {
                 let mut kernel = SinglePairs::default();
-                let scale = kernel.load(&law, &positions, &q);
-                kernel.fill(avx);
+                let scale = kernel.load(&law, &positions, q);
+                kernel.signed = signed.unwrap_or(kernel.signed);
+                kernel.fill(form);
                 let mut out = vec![Vector3::zeros(); positions.len()];
                 kernel.gather(scale, &mut out);
                 out
-            })
-            .collect();
-        assert_eq!(sums[0], sums[1]);
+            };
+            let portable = sums(Form::Portable, None);
+            assert!(portable.iter().all(|f| f.norm() > 0.0));
+            for form in Form::available() {
+                assert_eq!(sums(form, None), portable, "{form:?}");
+                assert_eq!(sums(form, Some(true)), portable, "{form:?} signed");
+            }
+        }
     }
 }
