@@ -44,25 +44,28 @@ pub(super) enum Form {
 }
 
 impl Form {
-    /// The widest form the processor runs.
+    /// The widest form the processor runs (no allocation: called once per evaluation).
     pub(super) fn detect() -> Self {
-        *Self::available().last().unwrap_or(&Form::Portable)
-    }
-
-    /// Every form the processor runs, narrowest first.
-    pub(super) fn available() -> Vec<Self> {
-        let mut forms = vec![Form::Portable];
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;
-            if has!("avx") && has!("fma") {
-                forms.push(Form::Avx);
-            }
             if has!("avx512f") {
-                forms.push(Form::Avx512);
+                return Form::Avx512;
+            }
+            if has!("avx") && has!("fma") {
+                return Form::Avx;
             }
         }
-        forms
+        Form::Portable
+    }
+
+    /// Every form the processor runs, narrowest first (each AVX-512 processor also has AVX
+    /// and FMA).
+    #[cfg(test)]
+    pub(super) fn available() -> Vec<Self> {
+        let all = [Form::Portable, Form::Avx, Form::Avx512];
+        let widest = all.iter().position(|&f| f == Self::detect()).unwrap_or(0);
+        all[..=widest].to_vec()
     }
 }
 
@@ -72,7 +75,7 @@ impl Form {
 /// overflows to +∞ there, so its terms add zeros either way).
 pub(super) fn fill(form: Form, at: &Columns, c: (f32, f32), signed: bool, pair: &mut Sums) {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: `form` is one the processor runs (`Form::available`).
+    // SAFETY: `form` is one the processor runs (`Form::detect` or a narrower one).
     unsafe {
         match (form, signed) {
             (Form::Avx, true) => return tile_pair_avx::<true>(at, c, pair),
