@@ -1,5 +1,5 @@
 //! Generalized trapezoidal rule (C9) solved by fixed-point iteration, with the adaptive step
-//! rule (C10) as the spec writes it (p = 2).
+//! rule (C10) with p = 2, and one departure on restarts (below).
 //!
 //! Within a step of size Δt, iterate K = 0, 1, 2, … from the state at t:
 //!   v^K = v(t) + Δt/m [φ Ψ(r^{K−1}, v^{K−1}) + (1−φ) Ψ(t)],
@@ -9,7 +9,14 @@
 //! so ϖ_0 = 1 by construction (the zeroth iterate is measured against the start of the step).
 //! Λ_K = (TOL/ϖ_0)^{1/(p K_d)} / (ϖ_K/ϖ_0)^{1/(p K)}. The step is accepted at the first
 //! K ≥ 1 with ϖ_K ≤ TOL; if that K < K_d the next step is Λ_K Δt, capped by Δt_max. If TOL is
-//! not met by K = K_d the step restarts with Δt ← Λ_K Δt.
+//! not met by K = K_d the step restarts with Δt ← min(Λ_K, [`RESTART_CAP`]) Δt.
+//!
+//! Why the cap (a departure from C10, which restarts with Λ_K Δt): Λ_{K_d} predicts the step
+//! at which ϖ_{K_d} meets TOL exactly, assuming ϖ_K ∝ Δt^{p K}. Where ϖ_{K_d} grows more
+//! slowly with Δt than that (measured on the 10⁴-particle cloud: about Δt^13 against Δt^20),
+//! each restart lands just above TOL again, the restarts close in on that step geometrically
+//! (29–33 restarts of 11 force evaluations each), and once Λ_{K_d} rounds to 1 the same
+//! attempt repeats forever. A restart that keeps at most 0.9 of the step ends both.
 
 use nalgebra::Vector3;
 
@@ -19,6 +26,17 @@ use super::params::StepParams;
 
 /// Order exponent p of the step rule.
 const P: f64 = 2.0;
+
+/// The largest share of the step a restart keeps: the usual safety factor of step-size
+/// controllers (Hairer, Nørsett & Wanner, Solving ODEs I, §II.4, fac = 0.9), here applied
+/// only where C10's own Λ_{K_d} would shrink the step less.
+pub const RESTART_CAP: f64 = 0.9;
+
+/// The step to retry after a restart of a step of size `h` with C10's factor `lambda`
+/// (Λ_{K_d}, finite): at most [`RESTART_CAP`] h, so restarts end after a bounded number.
+pub fn restarted_step(lambda: f64, h: f64) -> f64 {
+    lambda.min(RESTART_CAP) * h
+}
 
 /// Counters of the adaptive scheme.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -114,7 +132,7 @@ impl Trapezoid {
                     if !lambda.is_finite() {
                         return Err(format!("non-finite state at step size {h:.3e} s"));
                     }
-                    self.dt = lambda * h;
+                    self.dt = restarted_step(lambda, h);
                     cloud.clone_from(&self.start);
                     if self.dt < self.params.dt_min {
                         return Err(format!(
@@ -191,5 +209,34 @@ impl Trapezoid {
         } else {
             change / travel
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_restart_keeps_c10s_factor_where_it_shrinks_the_step_enough() {
+        assert_eq!(restarted_step(0.5, 2e-4), 0.5 * 2e-4);
+        assert_eq!(restarted_step(RESTART_CAP, 2e-4), RESTART_CAP * 2e-4);
+    }
+
+    #[test]
+    fn restarts_close_to_the_tolerance_still_shrink_the_step() {
+        // Λ_{K_d} = (TOL/ϖ_{K_d})^{1/(p K_d)} for ϖ just above TOL: 1 − 10⁻⁶, and exactly 1
+        // once ϖ − TOL is below the rounding of the power (seen at N = 10⁴)
+        let (tol, kd) = (5e-4_f64, 10.0);
+        for excess in [1e-5_f64, 1e-12, 0.0] {
+            let lambda = (tol / (tol * (1.0 + excess))).powf(1.0 / (P * kd));
+            assert!(restarted_step(lambda, 2.5e-4) <= RESTART_CAP * 2.5e-4);
+        }
+        // so from Δt_max = 2.5e-4 s to dt_min = 1e-12 s takes at most ln(4e-9)/ln(0.9) = 184
+        let (mut h, mut restarts) = (2.5e-4, 0);
+        while h >= 1e-12 {
+            h = restarted_step(1.0, h);
+            restarts += 1;
+        }
+        assert!(restarts <= 184, "{restarts}");
     }
 }
