@@ -124,6 +124,12 @@ impl Simulation {
                 let (stepper, forces) = &mut **boxed;
                 while t - self.time > 1e-12 * t.abs().max(1e-300) {
                     let h = stepper.step(&mut self.cloud, forces, t - self.time)?;
+                    if self.time + h == self.time {
+                        return Err(format!(
+                            "time no longer advances at t = {} s with steps of {h:.3e} s",
+                            self.time
+                        ));
+                    }
                     self.time += h;
                     observe(stepper.stats.steps as u64, self.time, &self.cloud);
                 }

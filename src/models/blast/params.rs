@@ -9,7 +9,8 @@ use crate::{Error, Result};
 /// Most series samples a run may ask for.
 pub const MAX_SAMPLES: usize = 100_000;
 
-/// Most time steps a run may need (duration over the longest allowed step).
+/// Most time steps a run may need (duration over the longest allowed step), and most step
+/// attempts an adaptive run may take before it fails.
 pub const MAX_STEPS: f64 = 1e8;
 
 /// Highest volume fraction attempted: RSA of equal spheres jams near 0.384, and gets very slow

@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 
 use super::cloud::Cloud;
 use super::interact::Interactor;
-use super::params::StepParams;
+use super::params::{StepParams, MAX_STEPS};
 
 /// Order exponent p of the step rule.
 const P: f64 = 2.0;
@@ -104,6 +104,12 @@ impl Trapezoid {
         self.start.clone_from(cloud);
         loop {
             let h = self.dt.min(limit);
+            if (self.stats.steps + self.stats.rejected) as f64 >= MAX_STEPS {
+                return Err(format!(
+                    "{MAX_STEPS:.0e} step attempts reached with steps of {h:.3e} s (the adaptive \
+                     step stayed too short for the duration)"
+                ));
+            }
             self.stats.evaluations += 1;
             forces.evaluate(
                 &self.start,

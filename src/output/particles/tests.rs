@@ -74,6 +74,15 @@ fn extended_xyz_frames_are_chosen_by_index() {
 }
 
 #[test]
+fn an_extended_xyz_count_near_the_integer_limit_is_a_short_frame() {
+    for count in [usize::MAX, usize::MAX - 1, usize::MAX - 3] {
+        let text = format!("{count}\ncomment\n1 2 3\n");
+        assert_eq!(xyz_frame_count(&text).unwrap(), 1);
+        assert!(read_xyz(&text, 0).is_err());
+    }
+}
+
+#[test]
 fn lammps_dump_round_trips_bit_exact() {
     let frame = sample();
     let text = lammps_dump(&frame, 3).unwrap();

@@ -100,7 +100,9 @@ fn frame_starts(lines: &[&str]) -> Result<Vec<usize>> {
     let mut at = 0;
     while at < lines.len() && !lines[at].trim().is_empty() {
         starts.push(at);
-        at += 2 + count(lines[at])?;
+        // saturating: a count near usize::MAX in a corrupt file ends the scan (that frame is
+        // then cut short) instead of wrapping `at` back into the text
+        at = at.saturating_add(2).saturating_add(count(lines[at])?);
     }
     Ok(starts)
 }
