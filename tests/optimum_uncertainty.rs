@@ -229,5 +229,40 @@ fn two_shards_in_lockstep_reach_the_single_process_optimum() {
     assert_ne!(code, 0, "{stderr}");
     assert!(stderr.contains("shard 1/2 is not running"), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    // shards started with different studies on one --out would each wait for runs the other
+    // never makes: they stop with an error instead
+    let other = dir.join("other.toml");
+    let text = std::fs::read_to_string(&study).unwrap();
+    std::fs::write(&other, text.replace("particles = 200", "particles = 201")).unwrap();
+    let mixed = dir.join("mixed");
+    let spawn = |file: &std::path::Path, shard: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_magopt"))
+            .args(["optimize", file.to_str().unwrap(), "--out"])
+            .args([
+                mixed.to_str().unwrap(),
+                "--shard",
+                shard,
+                "--shard-timeout",
+                "10",
+            ])
+            .args(["--threads", "1"])
+            .output()
+            .unwrap()
+    };
+    let (a, b) = std::thread::scope(|scope| {
+        let a = scope.spawn(|| spawn(&study, "0/2"));
+        let b = scope.spawn(|| spawn(&other, "1/2"));
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    let said = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(!a.status.success() && !b.status.success());
+    assert!(
+        [&a, &b]
+            .iter()
+            .any(|o| said(o).contains("runs another study")),
+        "{}\n{}",
+        said(&a),
+        said(&b)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -38,9 +38,9 @@ pub fn read_limited(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// A result directory held by this process: `DIR/.magopt.lock` holds its process id and is
-/// removed when the lock is dropped. A lock left by a process that no longer runs is taken
-/// over.
+/// A result directory held by this process: `DIR/.magopt.lock` holds its process id (and,
+/// for a shard's lock, a note after it) and is removed when the lock is dropped. A lock left
+/// by a process that no longer runs is taken over.
 #[derive(Debug)]
 pub struct DirLock {
     path: PathBuf,
@@ -49,11 +49,12 @@ pub struct DirLock {
 impl DirLock {
     /// Takes the lock of `dir` (which must exist), or says which process holds it.
     pub fn acquire(dir: &Path) -> Result<Self> {
-        Self::acquire_named(dir, ".magopt.lock")
+        Self::acquire_named(dir, ".magopt.lock", "")
     }
 
-    /// Takes the lock file `name` in `dir` (shards of one optimization each hold their own).
-    pub fn acquire_named(dir: &Path, name: &str) -> Result<Self> {
+    /// Takes the lock file `name` in `dir` (shards of one optimization each hold their own),
+    /// writing `note` (one word, see [`lock_note`]) after the process id.
+    pub fn acquire_named(dir: &Path, name: &str, note: &str) -> Result<Self> {
         let path = dir.join(name);
         for _ in 0..2 {
             let created = std::fs::OpenOptions::new()
@@ -63,13 +64,15 @@ impl DirLock {
             match created {
                 Ok(mut file) => {
                     use std::io::Write;
-                    let _ = write!(file, "{}", std::process::id());
+                    // one write, so that a reader sees all of it or nothing
+                    let text = format!("{} {note}", std::process::id());
+                    let _ = file.write_all(text.trim_end().as_bytes());
                     return Ok(Self { path });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let holder = std::fs::read_to_string(&path).unwrap_or_default();
-                    match holder.trim().parse::<u32>() {
-                        Ok(pid) if alive(pid) => {
+                    let holder = read_lock(&path);
+                    match holder.split_whitespace().next().map(str::parse::<u32>) {
+                        Some(Ok(pid)) if alive(pid) => {
                             return Err(Error::input(format!(
                                 "'{}' is in use by magopt process {pid} (lock {}): wait for it \
                                  to finish, or choose another --out",
@@ -99,6 +102,19 @@ impl DirLock {
     pub fn path(&self) -> &Path {
         &self.path
     }
+}
+
+/// A lock file's text (empty if it cannot be read; at most 4 KiB are read).
+fn read_lock(path: &Path) -> String {
+    read_text_limited(path, 4096, "lock").unwrap_or_default()
+}
+
+/// The note a lock file carries after its process id, if any.
+pub fn lock_note(path: &Path) -> Option<String> {
+    read_lock(path)
+        .split_whitespace()
+        .nth(1)
+        .map(str::to_string)
 }
 
 /// Keeps a lock file's modification time fresh (every [`HEARTBEAT`]) while it lives, so that

@@ -222,7 +222,7 @@ pub fn optimize_sharded<M: StudyModel>(
     tick: &(dyn Fn() + Sync),
     shard: Option<ShardWait>,
 ) -> Result<StudyOptimum> {
-    let _lock = lock(out, shard)?;
+    let _lock = lock(out, shard, &shard_key(model, study))?;
     optimize_at(model, study, out, tick, &Place::default(), shard)
 }
 
@@ -241,9 +241,18 @@ pub(crate) enum Held {
     },
 }
 
+/// What the shards of one optimization must share: the model's code and the study's text.
+pub(crate) fn shard_key<M: StudyModel>(model: &M, study: &Study<M>) -> String {
+    format!("{}\n{}", model.code(), study.text)
+}
+
 /// Prepares and locks the output directory (a shard takes its own lock, so that the shards of
-/// one optimization share the directory).
-pub(crate) fn lock(out: Option<&Path>, shard: Option<ShardWait>) -> Result<Option<Held>> {
+/// one optimization share the directory, and records `key`, [`shard_key`]).
+pub(crate) fn lock(
+    out: Option<&Path>,
+    shard: Option<ShardWait>,
+    key: &str,
+) -> Result<Option<Held>> {
     let Some(dir) = out else {
         return match shard {
             Some(_) => Err(Error::input("--shard: a sharded optimization needs --out")),
@@ -253,7 +262,7 @@ pub(crate) fn lock(out: Option<&Path>, shard: Option<ShardWait>) -> Result<Optio
     crate::output::atomic::prepare_output_dir(dir)?;
     Ok(Some(match shard {
         Some(s) => Held::Shard {
-            _lock: s.hold(dir)?,
+            _lock: s.hold(dir, key)?,
         },
         None => Held::Whole {
             _lock: crate::output::guard::DirLock::acquire(dir)?,

@@ -12,7 +12,7 @@
 use std::path::Path;
 
 use super::model::{ParamSpec, StudyModel, Value};
-use super::optimize::{lock, optimize_at, Place, StudyOptimum};
+use super::optimize::{lock, optimize_at, shard_key, Place, StudyOptimum};
 use super::optimize_shard::ShardWait;
 use super::records::{metric_unit, param_unit, value_column};
 use super::sensitivity_tables::push_descriptions;
@@ -53,7 +53,7 @@ pub fn optimize_points<M: StudyModel>(
         .iter()
         .map(|values| study.params_at(model, values))
         .collect::<Result<Vec<_>>>()?;
-    let _lock = lock(out, shard)?;
+    let _lock = lock(out, shard, &shard_key(model, study))?;
     let mut offset = 0;
     let mut found = Vec::with_capacity(points.len());
     for (values, base) in points.into_iter().zip(bases) {

@@ -9,15 +9,17 @@
 //! writes the result tables. Each shard holds its own lock file and keeps its modification
 //! time fresh (a heartbeat); a shard waiting for runs of a peer whose lock is missing or older
 //! than the timeout stops with an error naming the peer, and re-running the shards resumes
-//! from the saved runs.
+//! from the saved runs. Each lock also carries a hash of what its shard runs (the model's code
+//! and the study's text), so that shards started with different studies or builds, which
+//! would each wait for runs the other never makes, stop with an error instead.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use super::records::{self, RunRecord};
 use super::runner::Shard;
-use super::spec::RunSpec;
-use crate::output::guard::{age_s, DirLock, Heartbeat};
+use super::spec::{fnv1a, RunSpec};
+use crate::output::guard::{age_s, lock_note, DirLock, Heartbeat};
 use crate::{Error, Result};
 
 /// How long between looks for a peer's run file.
@@ -45,9 +47,11 @@ impl ShardWait {
         format!(".magopt.shard-{index}-of-{}.lock", self.shard.count)
     }
 
-    /// Takes this shard's lock of `dir` and starts its heartbeat.
-    pub fn hold(&self, dir: &Path) -> Result<ShardLock> {
-        let lock = DirLock::acquire_named(dir, &self.lock_name(self.shard.index))?;
+    /// Takes this shard's lock of `dir`, noting a hash of `key` (what it runs), and starts its
+    /// heartbeat.
+    pub fn hold(&self, dir: &Path, key: &str) -> Result<ShardLock> {
+        let note = format!("study={:016x}", fnv1a(key));
+        let lock = DirLock::acquire_named(dir, &self.lock_name(self.shard.index), &note)?;
         Ok(ShardLock {
             _beat: Heartbeat::start(lock.path()),
             _lock: lock,
@@ -73,6 +77,18 @@ impl ShardWait {
                 });
             }
             let silent = age_s(&lock).is_none_or(|age| age > self.timeout_s);
+            let mine = lock_note(&dir.join(self.lock_name(self.shard.index)));
+            if !silent && lock_note(&lock).is_some_and(|theirs| Some(&theirs) != mine.as_ref()) {
+                return Err(Error::input(format!(
+                    "shard {peer}/{n} runs another study or magopt build than shard {me}/{n} \
+                     (their locks {} and {} differ): start every shard with the same study \
+                     file and binary",
+                    lock.display(),
+                    self.lock_name(self.shard.index),
+                    n = self.shard.count,
+                    me = self.shard.index,
+                )));
+            }
             if silent && start.elapsed().as_secs_f64() > self.timeout_s {
                 return Err(Error::Output(format!(
                     "shard {peer}/{} is not running (its lock {} is missing or untouched for {} s) \

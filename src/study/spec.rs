@@ -507,10 +507,14 @@ pub fn run_id<M: StudyModel>(model: &M, inputs: &str, seed: u64) -> String {
         model.name(),
         model.code()
     );
-    let hash = text.bytes().fold(0xcbf29ce484222325u64, |h, b| {
+    format!("{:016x}", fnv1a(&text))
+}
+
+/// FNV-1a, 64 bits: a stable hash of `text` (the same on every machine and build).
+pub fn fnv1a(text: &str) -> u64 {
+    text.bytes().fold(0xcbf29ce484222325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100000001b3)
-    });
-    format!("{hash:016x}")
+    })
 }
 
 /// The `[design]` table: method, samples and the parameters' domains; the points are drawn
