@@ -14,7 +14,7 @@
 //!
 //! Why the cap (a departure from C10, which restarts with Λ_K Δt): Λ_{K_d} predicts the step
 //! at which ϖ_{K_d} meets TOL exactly, assuming ϖ_K ∝ Δt^{p K}. Where ϖ_{K_d} grows more
-//! slowly with Δt than that (measured on the 10⁴-particle cloud: about Δt^13 against Δt^20),
+//! slowly with Δt than that (measured on the 10⁴-particle cloud: about Δt^12.4 against Δt^20),
 //! each restart lands just above TOL again, the restarts close in on that step geometrically
 //! (29–33 restarts of 11 force evaluations each), and once Λ_{K_d} rounds to 1 the same
 //! attempt repeats forever. A restart that keeps at most 0.9 of the step ends both.
