@@ -234,7 +234,9 @@ static PARAMETERS: &[BlastParam] = &[
             "tolerance",
             "Relative tolerance TOL of the fixed-point iteration (C10)"
         )
-        .within(POSITIVE),
+        // ϖ_0 = 1 by construction: TOL ≥ 1 would accept any first iterate, and its Λ_K < 1
+        // would shrink the step on acceptance without bound
+        .within(Bounds::UNIT_OPEN),
         step.tolerance
     ),
     number_param!(
