@@ -69,6 +69,7 @@ impl ShardWait {
         let peer = j % self.shard.count;
         let lock = dir.join(self.lock_name(peer));
         let start = Instant::now();
+        let mine = lock_note(&dir.join(self.lock_name(self.shard.index)));
         loop {
             if let (Some(saved), _) = records::load(dir, &run.id)? {
                 return Ok(RunRecord {
@@ -77,7 +78,6 @@ impl ShardWait {
                 });
             }
             let silent = age_s(&lock).is_none_or(|age| age > self.timeout_s);
-            let mine = lock_note(&dir.join(self.lock_name(self.shard.index)));
             if !silent && lock_note(&lock).is_some_and(|theirs| Some(&theirs) != mine.as_ref()) {
                 return Err(Error::input(format!(
                     "shard {peer}/{n} runs another study or magopt build than shard {me}/{n} \

@@ -11,9 +11,9 @@
 //! units), one square root and one division per pair and five products before the sums.
 //! Why this form and the sixteen lanes: the loop is bound by its products and fused
 //! multiply-adds as much as by the root and the division (a build without either ran
-//! 0.70–0.75 of the time), so each product taken out counts. Against the earlier 1/√r² form, s took
-//! 0.92 of the time, skipping the signs' products where every charge is positive 0.82, and
-//! AVX-512 0.65 on the AMD EPYC VM (results/bench/README.md, "`blast`: the near field in
+//! 0.70–0.75 of the time), so each product taken out counts. Against the earlier 1/√r² form,
+//! s took 0.92 of the time, skipping the signs' products where every charge is positive 0.82,
+//! and AVX-512 0.65 on the AMD EPYC VM (results/bench/README.md, "`blast`: the near field in
 //! sixteen lanes").
 
 #[cfg(target_arch = "x86_64")]

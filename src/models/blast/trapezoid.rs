@@ -1,5 +1,5 @@
 //! Generalized trapezoidal rule (C9) solved by fixed-point iteration, with the adaptive step
-//! rule (C10) with p = 2, and one departure on restarts (below).
+//! rule (C10) with p = 2, and two departures on restarts (below).
 //!
 //! Within a step of size Δt, iterate K = 0, 1, 2, … from the state at t:
 //!   v^K = v(t) + Δt/m [φ Ψ(r^{K−1}, v^{K−1}) + (1−φ) Ψ(t)],
